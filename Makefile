@@ -1,0 +1,32 @@
+# Two commands do all the set-up on a fresh machine (python3 with venv, no GPU, no display):
+#   make demo   -- create .venv if missing, run the default plant demo into out/
+#   make test   -- create .venv if missing, run ruff and the whole test suite
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+export MUJOCO_GL ?= egl
+export PYOPENGL_PLATFORM ?= egl
+
+.PHONY: demo test bench assets clean
+
+$(VENV)/.installed: pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $@
+
+demo: $(VENV)/.installed
+	$(PY) -m uvms_mj.demo --out out
+
+test: $(VENV)/.installed
+	$(VENV)/bin/ruff check .
+	$(PY) -m pytest -q
+
+bench: $(VENV)/.installed
+	$(PY) bench/plant_speed.py
+
+assets: $(VENV)/.installed
+	$(PY) -m uvms_mj.export
+
+clean:
+	rm -rf out .pytest_cache

@@ -1,0 +1,370 @@
+"""Vehicle parameters: load `assets/*.toml` into frozen dataclasses, validating every field.
+
+This is the one source of vehicle numbers for the controller and the plant. Every number in the
+file is written as ``{ value = ..., unit = "...", source = "..." }``; the loader checks the unit
+against the one this schema expects, the shape, the allowed range, and rejects unknown or missing
+keys with one line naming the file, the field and what is allowed.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ASSETS = Path(__file__).resolve().parent.parent / "assets"
+DEFAULT_VEHICLE = ASSETS / "bluerov2_heavy_alpha.toml"
+VEHICLE_SCHEMA = "uvms-vehicle/1"
+
+
+class ParamError(ValueError):
+    """A parameter file is malformed; the message is one line: file, field, what is allowed."""
+
+
+def _frozen(a: Any) -> np.ndarray:
+    arr = np.array(a, dtype=float)
+    arr.flags.writeable = False
+    return arr
+
+
+@dataclass(frozen=True)
+class Superellipsoid:
+    """Paper's superellipsoid: semi-axes (a, b, c) [m], eps1 (x-y exponent), eps2 (z exponent)."""
+
+    semi_axes: np.ndarray
+    eps1: float
+    eps2: float
+
+
+@dataclass(frozen=True)
+class Hull:
+    """Vehicle hull. Vectors in the body frame (x forward, y left, z up), about the body origin."""
+
+    mass: float  # kg
+    inertia: np.ndarray  # (3,) kg m^2, principal, about the CoM
+    com: np.ndarray  # (3,) m
+    volume: float  # m^3, displaced
+    cob: np.ndarray  # (3,) m
+    size: np.ndarray  # (3,) m, length x width x height
+    arm_mount: np.ndarray  # (3,) m, position of the first joint
+    superellipsoid: Superellipsoid
+    added_mass: np.ndarray  # (6,) kg, kg, kg, kg m^2 x3 (Fossen, diagonal)
+    linear_damping: np.ndarray  # (6,) N s/m x3, N m s/rad x3
+    quadratic_damping: np.ndarray  # (6,) N s^2/m^2 x3, N m s^2/rad^2 x3
+    mujoco_fluidcoef: np.ndarray  # (5,) plant only
+
+
+@dataclass(frozen=True)
+class Thruster:
+    """A thruster: position [m] and unit thrust direction in the body frame, force range [N]."""
+
+    name: str
+    position: np.ndarray
+    direction: np.ndarray
+    force_range: np.ndarray  # (2,) N: min, max
+
+
+@dataclass(frozen=True)
+class Link:
+    """An arm link and the revolute joint that moves it (see the TOML header for frames)."""
+
+    name: str
+    joint_axis: np.ndarray  # (3,) unit, in the link frame (= parent frame at q = 0)
+    joint_range: np.ndarray  # (2,) rad
+    torque_limit: float  # N m, symmetric
+    joint_damping: float  # N m s/rad, plant only
+    length: float  # m
+    radius: float  # m
+    mass: float  # kg
+    com: np.ndarray  # (3,) m, link frame
+    inertia: np.ndarray  # (3,) kg m^2, principal about the CoM, link axes
+    volume: float  # m^3
+    cob: np.ndarray  # (3,) m, link frame
+    superellipsoid: Superellipsoid
+    added_mass_coefficient: float  # -, cross-flow
+    drag_coefficient: float  # -, cross-flow
+    mujoco_fluidcoef: np.ndarray  # (5,) plant only
+
+
+@dataclass(frozen=True)
+class Arm:
+    """A serial arm: links from base to tip, home posture [rad], end-effector point [m]."""
+
+    name: str
+    links: tuple[Link, ...]
+    home: np.ndarray
+    end_effector: np.ndarray  # (3,) m, in the last link's frame
+    tip_radius: float  # m
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.links)
+
+
+@dataclass(frozen=True)
+class UVMSParams:
+    """A whole vehicle: hull, thrusters and one arm variant."""
+
+    name: str
+    source: Path
+    hull: Hull
+    thrusters: tuple[Thruster, ...]
+    arm: Arm
+
+    @property
+    def n_joints(self) -> int:
+        return self.arm.n_joints
+
+    @property
+    def n_thrusters(self) -> int:
+        return len(self.thrusters)
+
+    @property
+    def n_inputs(self) -> int:
+        """Length of u = [thruster forces (N), joint torques (N m)]."""
+        return self.n_thrusters + self.n_joints
+
+    @property
+    def n_states(self) -> int:
+        """Length of the paper's state h = [x y z phi theta psi q_m | v omega qdot_m]."""
+        return 2 * (6 + self.n_joints)
+
+    def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of u."""
+        lo = [t.force_range[0] for t in self.thrusters] + [-lk.torque_limit for lk in self.arm.links]
+        hi = [t.force_range[1] for t in self.thrusters] + [lk.torque_limit for lk in self.arm.links]
+        return np.array(lo), np.array(hi)
+
+    def without_arm(self) -> UVMSParams:
+        """The hull alone (zero links): for hull-only experiments."""
+        arm = Arm(name="none", links=(), home=_frozen([]), end_effector=_frozen([0, 0, 0]),
+                  tip_radius=self.arm.tip_radius)
+        return replace(self, arm=arm)
+
+
+# --------------------------------------------------------------------------------------------
+# Validation machinery: a table reader that knows its file and dotted path.
+
+
+@dataclass
+class _Table:
+    data: dict[str, Any]
+    file: Path
+    path: str
+    used: set[str] = field(default_factory=set)
+
+    def _where(self, key: str) -> str:
+        return f"{self.file.name}: {self.path + '.' if self.path else ''}{key}"
+
+    def fail(self, key: str, msg: str) -> ParamError:
+        return ParamError(f"{self._where(key)}: {msg}")
+
+    def _get(self, key: str) -> Any:
+        if key not in self.data:
+            raise self.fail(key, "missing key")
+        self.used.add(key)
+        return self.data[key]
+
+    def table(self, key: str) -> _Table:
+        v = self._get(key)
+        if not isinstance(v, dict):
+            raise self.fail(key, f"expected a table, got {type(v).__name__}")
+        return _Table(v, self.file, f"{self.path + '.' if self.path else ''}{key}")
+
+    def tables(self, key: str) -> list[_Table]:
+        v = self._get(key)
+        if not isinstance(v, list) or not all(isinstance(t, dict) for t in v) or not v:
+            raise self.fail(key, "expected a non-empty array of tables ([[...]])")
+        return [_Table(t, self.file, f"{self.path}.{key}[{i}]".lstrip(".")) for i, t in enumerate(v)]
+
+    def string(self, key: str, allowed: tuple[str, ...] | None = None) -> str:
+        v = self._get(key)
+        if not isinstance(v, str) or not v:
+            raise self.fail(key, "expected a non-empty string")
+        if allowed is not None and v not in allowed:
+            raise self.fail(key, f"{v!r} is not allowed; allowed: {', '.join(allowed)}")
+        return v
+
+    def strings(self, key: str) -> list[str]:
+        v = self._get(key)
+        if not isinstance(v, list) or not v or not all(isinstance(s, str) for s in v):
+            raise self.fail(key, "expected a non-empty list of strings")
+        return v
+
+    def quantity(
+        self,
+        key: str,
+        unit: str,
+        shape: tuple[int, ...] = (),
+        *,
+        min_value: float | None = None,
+        strict_min: bool = False,
+        max_value: float | None = None,
+    ) -> np.ndarray:
+        """A number or array written as {value, unit, source}; checked for unit, shape, range."""
+        q = self._get(key)
+        if not isinstance(q, dict) or set(q) != {"value", "unit", "source"}:
+            raise self.fail(key, 'expected { value = ..., unit = "...", source = "..." }')
+        if q["unit"] != unit:
+            raise self.fail(key, f"unit {q['unit']!r} is not allowed; allowed: {unit!r}")
+        if not isinstance(q["source"], str) or not q["source"].strip():
+            raise self.fail(key, "source must be a non-empty string")
+        try:
+            arr = np.array(q["value"], dtype=float)
+        except (TypeError, ValueError):
+            raise self.fail(key, "value must be a number or a rectangular array of numbers") from None
+        if arr.shape != shape:
+            raise self.fail(key, f"shape {arr.shape} is not allowed; allowed: {shape}")
+        if not np.all(np.isfinite(arr)):
+            raise self.fail(key, "value must be finite")
+        if min_value is not None:
+            bad = arr <= min_value if strict_min else arr < min_value
+            if np.any(bad):
+                op = ">" if strict_min else ">="
+                raise self.fail(key, f"value {arr.tolist()} out of range; allowed: {op} {min_value}")
+        if max_value is not None and np.any(arr > max_value):
+            raise self.fail(key, f"value {arr.tolist()} out of range; allowed: <= {max_value}")
+        return _frozen(arr)
+
+    def scalar(self, key: str, unit: str, **kw: Any) -> float:
+        return float(self.quantity(key, unit, (), **kw))
+
+    def unit_vector(self, key: str) -> np.ndarray:
+        v = self.quantity(key, "1", (3,))
+        if abs(np.linalg.norm(v) - 1.0) > 1e-6:
+            raise self.fail(key, f"norm {np.linalg.norm(v):.6g} is not allowed; "
+                                 "allowed: a unit vector (|n| = 1 within 1e-6)")
+        return v
+
+    def finish(self) -> None:
+        unknown = sorted(set(self.data) - self.used)
+        if unknown:
+            raise self.fail(unknown[0], f"unknown key; allowed: {', '.join(sorted(self.used))}")
+
+
+def _superellipsoid(t: _Table) -> Superellipsoid:
+    semi = t.quantity("semi_axes", "m", (3,), min_value=0.0, strict_min=True)
+    eps = t.quantity("exponents", "1", (2,), min_value=0.0, strict_min=True, max_value=2.0)
+    t.finish()
+    return Superellipsoid(semi_axes=semi, eps1=float(eps[0]), eps2=float(eps[1]))
+
+
+def _six(t: _Table, unit_lin: str, unit_rot: str) -> np.ndarray:
+    lin = t.quantity("translational", unit_lin, (3,), min_value=0.0)
+    rot = t.quantity("rotational", unit_rot, (3,), min_value=0.0)
+    t.finish()
+    return _frozen(np.concatenate([lin, rot]))
+
+
+def _hull(t: _Table) -> Hull:
+    hull = Hull(
+        mass=t.scalar("mass", "kg", min_value=0.0, strict_min=True),
+        inertia=t.quantity("inertia", "kg*m^2", (3,), min_value=0.0, strict_min=True),
+        com=t.quantity("com", "m", (3,)),
+        volume=t.scalar("volume", "m^3", min_value=0.0, strict_min=True),
+        cob=t.quantity("cob", "m", (3,)),
+        size=t.quantity("size", "m", (3,), min_value=0.0, strict_min=True),
+        arm_mount=t.quantity("arm_mount", "m", (3,)),
+        superellipsoid=_superellipsoid(t.table("superellipsoid")),
+        added_mass=_six(t.table("added_mass"), "kg", "kg*m^2"),
+        linear_damping=_six(t.table("linear_damping"), "N*s/m", "N*m*s/rad"),
+        quadratic_damping=_six(t.table("quadratic_damping"), "N*s^2/m^2", "N*m*s^2/rad^2"),
+        mujoco_fluidcoef=t.quantity("mujoco_fluidcoef", "1", (5,), min_value=0.0),
+    )
+    t.finish()
+    return hull
+
+
+def _thruster(t: _Table) -> Thruster:
+    fr = t.quantity("force_range", "N", (2,))
+    if not fr[0] < fr[1]:
+        raise t.fail("force_range", f"{fr.tolist()} is not allowed; allowed: [min, max] with min < max")
+    th = Thruster(name=t.string("name"), position=t.quantity("position", "m", (3,)),
+                  direction=t.unit_vector("direction"), force_range=fr)
+    t.finish()
+    return th
+
+
+def _link(name: str, t: _Table) -> Link:
+    rng = t.quantity("joint_range", "rad", (2,))
+    if not rng[0] < rng[1]:
+        raise t.fail("joint_range", f"{rng.tolist()} is not allowed; allowed: [min, max] with min < max")
+    link = Link(
+        name=name,
+        joint_axis=t.unit_vector("joint_axis"),
+        joint_range=rng,
+        torque_limit=t.scalar("torque_limit", "N*m", min_value=0.0, strict_min=True),
+        joint_damping=t.scalar("joint_damping", "N*m*s/rad", min_value=0.0),
+        length=t.scalar("length", "m", min_value=0.0, strict_min=True),
+        radius=t.scalar("radius", "m", min_value=0.0, strict_min=True),
+        mass=t.scalar("mass", "kg", min_value=0.0, strict_min=True),
+        com=t.quantity("com", "m", (3,)),
+        inertia=t.quantity("inertia", "kg*m^2", (3,), min_value=0.0, strict_min=True),
+        volume=t.scalar("volume", "m^3", min_value=0.0, strict_min=True),
+        cob=t.quantity("cob", "m", (3,)),
+        superellipsoid=_superellipsoid(t.table("superellipsoid")),
+        added_mass_coefficient=t.scalar("added_mass_coefficient", "1", min_value=0.0),
+        drag_coefficient=t.scalar("drag_coefficient", "1", min_value=0.0),
+        mujoco_fluidcoef=t.quantity("mujoco_fluidcoef", "1", (5,), min_value=0.0),
+    )
+    t.finish()
+    return link
+
+
+def _arm(name: str, t: _Table, links: dict[str, Link]) -> Arm:
+    names = t.strings("links")
+    for n in names:
+        if n not in links:
+            raise t.fail("links", f"unknown link {n!r}; allowed: {', '.join(links)}")
+    n = len(names)
+    home = t.quantity("home", "rad", (n,))
+    chain = tuple(links[k] for k in names)
+    for i, (lk, q) in enumerate(zip(chain, home, strict=True)):
+        if not lk.joint_range[0] <= q <= lk.joint_range[1]:
+            raise t.fail("home", f"joint {i} ({lk.name}) at {q} rad is outside its range "
+                                 f"{lk.joint_range.tolist()}; allowed: within the joint range")
+    arm = Arm(name=name, links=chain, home=home,
+              end_effector=t.quantity("end_effector", "m", (3,)),
+              tip_radius=t.scalar("tip_radius", "m", min_value=0.0, strict_min=True))
+    t.finish()
+    return arm
+
+
+def load_params(path: str | Path = DEFAULT_VEHICLE, arm: str | None = None) -> UVMSParams:
+    """Load and validate a vehicle file; `arm` picks an arm variant (default: the file's own).
+
+    Raises:
+        ParamError: one line naming the file, the field and what is allowed.
+    """
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ParamError(f"{path}: no such vehicle file") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ParamError(f"{path.name}: not valid TOML: {e}") from None
+    top = _Table(raw, path, "")
+    top.string("schema", (VEHICLE_SCHEMA,))
+    name = top.string("name")
+    default_arm = top.string("default_arm")
+    hull = _hull(top.table("hull"))
+    thrusters = tuple(_thruster(t) for t in top.tables("thrusters"))
+    if len({t.name for t in thrusters}) != len(thrusters):
+        raise top.fail("thrusters", "thruster names must be unique")
+    links_t = top.table("links")
+    links = {k: _link(k, links_t.table(k)) for k in list(links_t.data)}
+    arms_t = top.table("arms")
+    arms = {k: _arm(k, arms_t.table(k), links) for k in list(arms_t.data)}
+    top.finish()
+    choice = arm or default_arm
+    if choice not in arms:
+        raise ParamError(f"{path.name}: arm {choice!r} is not defined; allowed: {', '.join(arms)}")
+    return UVMSParams(name=name, source=path, hull=hull, thrusters=thrusters, arm=arms[choice])
+
+
+def arm_variants(path: str | Path = DEFAULT_VEHICLE) -> tuple[str, ...]:
+    """Names of the arm variants a vehicle file defines."""
+    return tuple(tomllib.loads(Path(path).read_text())["arms"])

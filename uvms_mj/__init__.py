@@ -1,0 +1,1 @@
+"""The MuJoCo plant: an independent physical UVMS built from the parameter file (no casadi)."""

@@ -1,0 +1,248 @@
+"""Build the MuJoCo plant (an `mujoco.MjSpec`) from vehicle parameters and a scene.
+
+What MuJoCo does not do by itself, and how the plant does it:
+
+- Buoyancy: MuJoCo has none. Every body gets a welded child body `<body>_cob` at its centre of
+  buoyancy with a tiny mass `COB_MASS` and `gravcomp = rho V / COB_MASS`: an upward force
+  rho V g at the centre of buoyancy. The parent's mass, centre of mass and inertia are reduced
+  so that the composite equals the parameter file exactly.
+- Added mass: MuJoCo's ellipsoid fluid model has no inertial -M_A dv/dt term. The hull's
+  rotational added inertia and an isotropic translational part (the mid-range of the three
+  translational added masses) go into the free joint's per-DOF armature, set after compile
+  (`<body simple="false">` keeps the solver from ignoring it). The anisotropic translational
+  remainder is applied by the plant as a force iterated to the implicit solution within each
+  step (uvms_mj.plant). Each link's cross-flow added mass enters as the hinge armature it adds
+  about its joint at the home posture (approximate: configuration-dependent and coupling terms
+  are not represented).
+- The velocity-dependent fluid forces (drag, lift, added-mass Coriolis) are MuJoCo's own
+  ellipsoid model on each geom: these are the plant's physics, not the paper's Fossen terms.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from uvms.params import Link, UVMSParams
+from uvms.scene import Scene
+
+COB_MASS = 1e-3  # kg, mass of each centre-of-buoyancy body (taken from its parent)
+HULL = "hull"
+ROOT_JOINT = "root"
+EE_SITE = "ee"
+TIP_GEOM = "ee_tip"
+VEHICLE_CLASS = "vehicle"
+OBSTACLE_CLASS = "obstacle"
+
+
+@dataclass(frozen=True)
+class BuildOptions:
+    """Switches for physics experiments; the defaults are the full plant."""
+
+    timestep: float = 0.002  # s
+    fluid: bool = True  # MuJoCo's ellipsoid fluid forces
+    buoyancy: bool = True
+    gravity: bool = True
+    added_mass: bool = True
+    fixed_base: bool = False  # hull welded to the world (manipulation experiments)
+
+    def __post_init__(self) -> None:
+        if not 0 < self.timestep <= 0.01:
+            raise ValueError(f"timestep {self.timestep} s is not allowed; allowed: 0 < timestep <= 0.01 s")
+
+
+def quat_z_to(direction: np.ndarray) -> np.ndarray:
+    """Quaternion (w, x, y, z) of the smallest rotation taking +z onto `direction`."""
+    d = np.asarray(direction, float) / np.linalg.norm(direction)
+    if d[2] < -1 + 1e-12:
+        return np.array([0.0, 1.0, 0.0, 0.0])
+    q = np.array([1.0 + d[2], -d[1], d[0], 0.0])
+    return q / np.linalg.norm(q)
+
+
+def _skew_sq(r: np.ndarray) -> np.ndarray:
+    """|r|^2 I - r r^T: the parallel-axis term of a unit point mass at r."""
+    return float(r @ r) * np.eye(3) - np.outer(r, r)
+
+
+def _parent_without_cob(mass: float, com: np.ndarray, inertia: np.ndarray, cob: np.ndarray,
+                        ) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass, CoM and full inertia (about its CoM) that, with a COB_MASS point at `cob`, give the
+    composite (mass, com, diag inertia about com)."""
+    m = mass - COB_MASS
+    c = (mass * com - COB_MASS * cob) / m
+    full = np.diag(inertia) - COB_MASS * _skew_sq(cob - com) - m * _skew_sq(c - com)
+    return m, c, full
+
+
+def _set_inertial(body: mujoco.MjsBody, mass: float, com: np.ndarray, inertia: np.ndarray,
+                  cob: np.ndarray, volume: float, rho: float, buoyancy: bool) -> None:
+    body.explicitinertial = True
+    if not buoyancy:
+        body.mass, body.ipos, body.inertia = mass, com, inertia
+        return
+    m, c, full = _parent_without_cob(mass, com, np.asarray(inertia), cob)
+    body.mass, body.ipos = m, c
+    body.fullinertia = [full[0, 0], full[1, 1], full[2, 2], full[0, 1], full[0, 2], full[1, 2]]
+    # The child sits at the parent's origin with its CoM at the CoB (gravcomp acts at the CoM).
+    child = body.add_body(name=f"{body.name}_cob")
+    child.explicitinertial = True
+    child.mass, child.ipos = COB_MASS, cob
+    child.inertia = [1e-9, 1e-9, 1e-9]
+    child.gravcomp = rho * volume / COB_MASS
+
+
+def _defaults(spec: mujoco.MjSpec) -> None:
+    veh = spec.add_default(VEHICLE_CLASS, spec.default)
+    veh.geom.contype, veh.geom.conaffinity, veh.geom.condim = 1, 0, 3
+    veh.geom.friction = [0.0, 0.0, 0.0]  # the obstacle's friction rules (higher priority)
+    veh.geom.fluid_ellipsoid = 1
+    veh.geom.group = 0
+    veh.geom.density = 0.0
+    obs = spec.add_default(OBSTACLE_CLASS, spec.default)
+    obs.geom.contype, obs.geom.conaffinity, obs.geom.priority = 0, 1, 1
+    obs.geom.group = 1
+
+
+def hull_armature(params: UVMSParams) -> np.ndarray:
+    """Free-joint armature [kg x3, kg m^2 x3]: isotropic translational part, rotational added mass."""
+    ma = params.hull.added_mass
+    iso = 0.5 * (ma[:3].min() + ma[:3].max())
+    return np.concatenate([[iso] * 3, ma[3:]])
+
+
+def hull_added_mass_remainder(params: UVMSParams) -> np.ndarray:
+    """Body-frame diagonal translational added mass [kg] not carried by the armature."""
+    return params.hull.added_mass[:3] - hull_armature(params)[:3]
+
+
+def link_added_mass(link: Link, rho: float) -> np.ndarray:
+    """Cross-flow added mass of a link (link frame, about its centre): kg x3, kg m^2 x3."""
+    mt = link.added_mass_coefficient * rho * np.pi * link.radius**2 * link.length
+    return np.array([0.0, mt, mt, 0.0, mt * link.length**2 / 12, mt * link.length**2 / 12])
+
+
+def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOptions()) -> mujoco.MjSpec:
+    """The plant as an MjSpec: every element named, default classes, a keyframe `home`."""
+    rho = scene.water.density
+    spec = mujoco.MjSpec()
+    spec.modelname = f"{params.name}_{params.arm.name}_{scene.name}"
+    spec.compiler.degree = False
+    opt = spec.option
+    opt.timestep = options.timestep
+    opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    opt.gravity = [0.0, 0.0, -scene.water.gravity if options.gravity else 0.0]
+    opt.density = rho if options.fluid else 0.0
+    opt.viscosity = scene.water.viscosity if options.fluid else 0.0
+    opt.wind = scene.current.at(0.0)
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 720
+    _defaults(spec)
+    _scene_geometry(spec, scene)
+    buoy = options.buoyancy
+
+    hull = spec.worldbody.add_body(name=HULL)
+    hull.simple = 0  # keep per-DOF armature set after compile in the dynamics
+    h = params.hull
+    _set_inertial(hull, h.mass, h.com, h.inertia, h.cob, h.volume, rho, buoy)
+    if not options.fixed_base:
+        hull.add_joint(name=ROOT_JOINT, type=mujoco.mjtJoint.mjJNT_FREE)
+    vcls = spec.find_default(VEHICLE_CLASS)
+    hull.add_geom(name="hull_geom", default=vcls, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+                  size=h.size / 2, fluid_coefs=h.mujoco_fluidcoef, rgba=[0.15, 0.35, 0.8, 0.9])
+    for t in params.thrusters:
+        hull.add_site(name=t.name, pos=t.position, quat=quat_z_to(t.direction),
+                      type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.03, 0.02, 0], rgba=[0.9, 0.6, 0.1, 1])
+    hull.add_camera(name="chase", pos=[-1.6, -1.6, 0.9], mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
+                    quat=_look_quat(np.array([1.6, 1.6, -0.9])))
+
+    parent, offset = hull, np.asarray(h.arm_mount)
+    for i, lk in enumerate(params.arm.links):
+        body = parent.add_body(name=lk.name, pos=offset)
+        _set_inertial(body, lk.mass, lk.com, lk.inertia, lk.cob, lk.volume, rho, buoy)
+        body.add_joint(name=f"{lk.name}_joint", type=mujoco.mjtJoint.mjJNT_HINGE, axis=lk.joint_axis,
+                       range=lk.joint_range, limited=1, damping=lk.joint_damping)
+        body.add_geom(name=f"{lk.name}_geom", default=vcls, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                      fromto=[0, 0, 0, lk.length, 0, 0], size=[lk.radius, 0, 0],
+                      fluid_coefs=lk.mujoco_fluidcoef, rgba=[0.75, 0.75, 0.72, 1])
+        if i == params.arm.n_joints - 1:
+            ee = params.arm.end_effector
+            body.add_geom(name=TIP_GEOM, default=vcls, type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                          pos=ee, size=[params.arm.tip_radius, 0, 0], rgba=[0.9, 0.2, 0.2, 1])
+            body.add_site(name=EE_SITE, pos=ee, size=[0.005, 0, 0])
+        parent, offset = body, np.array([lk.length, 0.0, 0.0])
+
+    for t in params.thrusters:
+        spec.add_actuator(name=t.name, target=t.name, trntype=mujoco.mjtTrn.mjTRN_SITE,
+                          gear=[0, 0, 1, 0, 0, 0], ctrllimited=1, ctrlrange=t.force_range)
+    for lk in params.arm.links:
+        spec.add_actuator(name=f"{lk.name}_motor", target=f"{lk.name}_joint",
+                          trntype=mujoco.mjtTrn.mjTRN_JOINT, gear=[1, 0, 0, 0, 0, 0],
+                          ctrllimited=1, ctrlrange=[-lk.torque_limit, lk.torque_limit])
+    base = [] if options.fixed_base else [0, 0, 0, 1, 0, 0, 0]
+    spec.add_key(name="home", qpos=np.concatenate([base, params.arm.home]))
+    if options.added_mass and params.arm.n_joints:
+        for lk, arm in zip(params.arm.links, _link_armature(spec, params, rho), strict=True):
+            spec.joint(f"{lk.name}_joint").armature = arm
+    return spec
+
+
+def _look_quat(forward: np.ndarray) -> np.ndarray:
+    """Camera quaternion looking along `forward` with world z up (camera looks along its -z)."""
+    f = forward / np.linalg.norm(forward)
+    right = np.cross(f, [0, 0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, f)
+    R = np.column_stack([right, up, -f])
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, R.ravel())
+    return q
+
+
+def _scene_geometry(spec: mujoco.MjSpec, scene: Scene) -> None:
+    spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.25, 0.3, 0.3],
+                     rgb2=[0.35, 0.4, 0.4], width=256, height=256)
+    spec.add_material(name="grid", textures=["", "grid"], texrepeat=[4, 4], reflectance=0.0)
+    spec.worldbody.add_light(name="sun", pos=[0, 0, 6], dir=[0, 0.2, -1], castshadow=False)
+    obs = spec.find_default(OBSTACLE_CLASS)
+    for p in scene.planes:
+        spec.worldbody.add_geom(
+            name=f"plane_{p.name}", default=obs, type=mujoco.mjtGeom.mjGEOM_PLANE,
+            pos=p.point, quat=quat_z_to(p.normal), size=[4, 4, 0.25], material="grid",
+            friction=[p.friction, 0.005, 0.0001], condim=3 if p.friction > 0 else 1)
+
+
+def _link_armature(spec: mujoco.MjSpec, params: UVMSParams, rho: float) -> list[float]:
+    """Added inertia about each hinge from the links it carries, at the home posture [kg m^2]."""
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_kinematics(model, data)
+    out = []
+    for j, lj in enumerate(params.arm.links):
+        jid = model.joint(f"{lj.name}_joint").id
+        anchor, axis = data.xanchor[jid], data.xaxis[jid]
+        total = 0.0
+        for lk in params.arm.links[j:]:
+            b = model.body(lk.name).id
+            R = data.xmat[b].reshape(3, 3)
+            centre = data.xpos[b] + R @ np.array([lk.length / 2, 0, 0])
+            v = R.T @ np.cross(axis, centre - anchor)
+            w = R.T @ axis
+            ma = link_added_mass(lk, rho)
+            total += v @ (ma[:3] * v) + w @ (ma[3:] * w)
+        out.append(float(total))
+    return out
+
+
+def compile_model(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOptions(),
+                  ) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+    """Compile the plant and set the per-DOF free-joint armature (not expressible in MJCF)."""
+    spec = build_spec(params, scene, options)
+    model = spec.compile()
+    if options.added_mass and not options.fixed_base:
+        dof = model.joint(ROOT_JOINT).dofadr[0]
+        model.dof_armature[dof:dof + 6] = hull_armature(params)
+    return spec, model

@@ -1,0 +1,339 @@
+"""The MuJoCo plant in the paper's terms: state h, input u held over a control period, reports.
+
+Input policy: u outside its limits is CLIPPED to the limits (the report's `clipped` mask says which
+entries were); u or h with the wrong length or a non-finite entry raises ValueError. MuJoCo's
+warnings (bad qacc/qpos/qvel, contact or constraint buffer full) raise PlantUnstableError.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+
+import mujoco
+import numpy as np
+
+from uvms.conventions import mujoco_to_state, quat_wxyz_to_matrix, state_to_mujoco
+from uvms.params import UVMSParams
+from uvms.scene import Current, Scene
+from uvms_mj.build import (
+    EE_SITE,
+    HULL,
+    ROOT_JOINT,
+    TIP_GEOM,
+    BuildOptions,
+    compile_model,
+    hull_added_mass_remainder,
+)
+
+_FATAL_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+    mujoco.mjtWarning.mjWARN_CONTACTFULL,
+    mujoco.mjtWarning.mjWARN_CNSTRFULL,
+)
+_ADDED_MASS_MAX_ITER = 12
+# N: the fixed-point iteration stops when the remainder force changes by less than this (about
+# 1e-6 of a thruster's force; each pass shrinks the error by |M_rem| / (m + armature) < 0.25).
+_ADDED_MASS_TOL = 1e-5
+
+
+class PlantUnstableError(RuntimeError):
+    """MuJoCo reported an unstable or overflowing simulation."""
+
+
+class FaultMode(Enum):
+    """How a failed thruster behaves."""
+
+    ZERO = "zero"  # no force
+    STUCK = "stuck"  # a constant force, whatever is commanded
+
+
+@dataclass(frozen=True)
+class ThrusterFault:
+    """Thruster `thruster` (index or name) fails from `start_time` [s] on."""
+
+    thruster: int | str
+    start_time: float = 0.0
+    mode: FaultMode = FaultMode.ZERO
+    value: float = 0.0  # N, the stuck force (mode STUCK)
+
+
+@dataclass(frozen=True)
+class ContactReport:
+    """Contact of one vehicle body with one plane over a control period."""
+
+    body: str
+    plane: str
+    impulse: np.ndarray  # (3,) N s, world frame, force on the vehicle integrated over the period
+    peak_normal_force: float  # N
+    force: np.ndarray  # (3,) N, world frame, at the end of the period
+
+
+@dataclass(frozen=True)
+class PlantReport:
+    """What the plant reports after a control period."""
+
+    t: float  # s
+    h: np.ndarray  # paper state at t
+    u_applied: np.ndarray  # thruster forces [N] and joint torques [N m] actually applied at t
+    clipped: np.ndarray  # bool mask: entries of the commanded u clipped to their limits
+    contacts: tuple[ContactReport, ...]  # bodies touching a plane during the period
+    ee_wrench: np.ndarray  # (6,) contact force [N] and torque about the EE point [N m], world, at t
+    ee_impulse: np.ndarray  # (3,) N s, EE contact force integrated over the period
+    distances: np.ndarray  # (n_geoms, n_planes) m, true signed distance of each geom to each plane
+
+
+@dataclass(frozen=True)
+class PlantSettings:
+    """Plant physics switches (see uvms_mj.build.BuildOptions) and faults."""
+
+    build: BuildOptions = field(default_factory=BuildOptions)
+    faults: tuple[ThrusterFault, ...] = ()
+
+
+class Plant:
+    """A UVMS in water with plane obstacles, stepped in control periods."""
+
+    def __init__(self, params: UVMSParams, scene: Scene, settings: PlantSettings = PlantSettings()):
+        self.params, self.scene, self.settings = params, scene, settings
+        self.spec, self.model = compile_model(params, scene, settings.build)
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._fixed = settings.build.fixed_base
+        self._hull = m.body(HULL).id
+        self._n_thr = params.n_thrusters
+        self._u_lo, self._u_hi = params.input_bounds()
+        self._rem = hull_added_mass_remainder(params) if (
+            settings.build.added_mass and not self._fixed) else np.zeros(3)
+        self._use_rem = bool(np.any(self._rem != 0))
+        self._faults = tuple(self._resolve_fault(f) for f in settings.faults)
+        self._current: Current = scene.current
+        self._ext = np.zeros((m.nbody, 6))
+        self._has_ext = False
+        self._f_rem = np.zeros(3)
+        self._tip = m.geom(TIP_GEOM).id if params.n_joints else -1
+        self._ee_site = m.site(EE_SITE).id if params.n_joints else -1
+        plane_ids = [m.geom(f"plane_{p.name}").id for p in scene.planes]
+        self.plane_names = tuple(p.name for p in scene.planes)
+        self._plane_index = {g: i for i, g in enumerate(plane_ids)}
+        self.geom_names = tuple(m.geom(g).name for g in range(m.ngeom) if m.geom_contype[g])
+        self._vehicle_geoms = [m.geom(n).id for n in self.geom_names]
+        self._geom_index = {g: i for i, g in enumerate(self._vehicle_geoms)}
+        self._plane_ids = plane_ids
+        self._warnings0 = np.zeros(len(_FATAL_WARNINGS), dtype=int)
+        self._fromto = np.zeros(6)
+        self._f6 = np.zeros(6)
+        self.reset()
+
+    # ----------------------------------------------------------------------------- state
+    @property
+    def t(self) -> float:
+        return float(self.data.time)
+
+    def reset(self, h: np.ndarray | None = None) -> None:
+        """Reset to the `home` keyframe at rest, or to the paper state h; time to 0."""
+        mujoco.mj_resetDataKeyframe(self.model, self.data, 0)
+        self._f_rem[:] = 0.0
+        if h is not None:
+            self.set_state(h)
+        self.model.opt.wind[:] = self._current.at(0.0)
+        mujoco.mj_forward(self.model, self.data)
+        self._warnings0 = self._warning_counts()
+
+    def set_state(self, h: np.ndarray) -> None:
+        """Set the paper state h (time unchanged)."""
+        h = self._check_vector(h, self.params.n_states, "state h")
+        nj = self.params.n_joints
+        if self._fixed:
+            self.data.qpos[:] = h[6:6 + nj]
+            self.data.qvel[:] = h[12 + nj:]
+        else:
+            self.data.qpos[:], self.data.qvel[:] = state_to_mujoco(h, nj)
+        mujoco.mj_forward(self.model, self.data)
+
+    def state(self) -> np.ndarray:
+        """The paper state h = [x y z phi theta psi q_m | v omega qdot_m]."""
+        nj = self.params.n_joints
+        if self._fixed:
+            z = np.zeros(6)
+            return np.concatenate([z, self.data.qpos, z, self.data.qvel])
+        return mujoco_to_state(self.data.qpos, self.data.qvel, nj)
+
+    def set_current(self, current: Current) -> None:
+        """Replace the current profile (times are simulation times)."""
+        self._current = current
+
+    def set_external_wrench(self, body: str, wrench: np.ndarray) -> None:
+        """A disturbance [N, N m], world frame, at the body's origin; held until changed."""
+        w = self._check_vector(wrench, 6, "wrench")
+        self._ext[self.model.body(body).id] = w
+        self._has_ext = bool(np.any(self._ext != 0))
+
+    # ----------------------------------------------------------------------------- stepping
+    def step(self, u: np.ndarray, duration: float) -> PlantReport:
+        """Hold u (zero-order) for `duration` seconds of physics steps and report."""
+        u = self._check_vector(u, self.params.n_inputs, "input u")
+        n = round(duration / self.model.opt.timestep)
+        if n < 1 or abs(n * self.model.opt.timestep - duration) > 1e-9:
+            raise ValueError(f"duration {duration} s is not allowed; allowed: a positive multiple "
+                             f"of the physics timestep {self.model.opt.timestep} s")
+        u_cmd = np.clip(u, self._u_lo, self._u_hi)
+        clipped = u_cmd != u
+        acc: dict[tuple[int, int], list] = {}
+        ee_imp = np.zeros(3)
+        dt = self.model.opt.timestep
+        for _ in range(n):
+            self._physics_step(u_cmd)
+            for key, f_world, _pos in self._contacts():
+                rec = acc.setdefault(key, [np.zeros(3), 0.0])
+                rec[0] += f_world * dt
+                rec[1] = max(rec[1], float(f_world @ self.scene.planes[key[1]].normal))
+                if self._vehicle_geoms[key[0]] == self._tip:
+                    ee_imp += f_world * dt
+        self._raise_on_warnings()
+        return self._report(clipped, acc, ee_imp)
+
+    def _physics_step(self, u: np.ndarray) -> None:
+        m, d = self.model, self.data
+        d.ctrl[:] = u
+        for idx, f in self._faults:
+            if d.time >= f.start_time:
+                d.ctrl[idx] = 0.0 if f.mode is FaultMode.ZERO else f.value
+        m.opt.wind[:] = self._current.at(d.time)
+        self._apply_xfrc(self._f_rem)
+        mujoco.mj_checkPos(m, d)
+        mujoco.mj_checkVel(m, d)
+        mujoco.mj_forward(m, d)
+        if self._use_rem:
+            self._iterate_added_mass()
+        mujoco.mj_checkAcc(m, d)
+        mujoco.mj_implicit(m, d)
+
+    def _iterate_added_mass(self) -> None:
+        """Fixed point f = -R diag(M_rem) R^T a: the anisotropic added-mass remainder."""
+        m, d = self.model, self.data
+        R = d.xmat[self._hull].reshape(3, 3)
+        for _ in range(_ADDED_MASS_MAX_ITER):
+            a_world = d.qacc[0:3]  # free joint: world acceleration of the hull origin
+            f = -R @ (self._rem * (R.T @ a_world))
+            if np.max(np.abs(f - self._f_rem)) < _ADDED_MASS_TOL:
+                break
+            self._f_rem[:] = f
+            self._apply_xfrc(f)
+            mujoco.mj_forwardSkip(m, d, mujoco.mjtStage.mjSTAGE_VEL, 1)
+
+    def _apply_xfrc(self, f_rem: np.ndarray) -> None:
+        """External wrenches act at body origins; xfrc_applied acts at the CoM: shift torques."""
+        d = self.data
+        d.xfrc_applied[:] = 0.0
+        if self._has_ext:
+            for b in np.flatnonzero(np.any(self._ext != 0, axis=1)):
+                f, tau = self._ext[b, :3], self._ext[b, 3:]
+                d.xfrc_applied[b, :3] += f
+                d.xfrc_applied[b, 3:] += tau + _cross(d.xpos[b] - d.xipos[b], f)
+        if self._use_rem:
+            h = self._hull
+            d.xfrc_applied[h, :3] += f_rem
+            d.xfrc_applied[h, 3:] += _cross(d.xpos[h] - d.xipos[h], f_rem)
+
+    # ----------------------------------------------------------------------------- reports
+    def _contacts(self):
+        """Yield ((vehicle geom index, plane index), force on the vehicle [N, world], position)."""
+        m, d = self.model, self.data
+        for i in range(d.ncon):
+            c = d.contact[i]
+            g1, g2 = c.geom1, c.geom2
+            if g1 in self._plane_index and g2 in self._geom_index:
+                plane, veh, sign = self._plane_index[g1], self._geom_index[g2], 1.0
+            elif g2 in self._plane_index and g1 in self._geom_index:
+                plane, veh, sign = self._plane_index[g2], self._geom_index[g1], -1.0
+            else:
+                continue
+            mujoco.mj_contactForce(m, d, i, self._f6)
+            # The contact-frame force acts on geom2; rows of `frame` are the frame's axes.
+            f_world = sign * (c.frame.reshape(3, 3).T @ self._f6[:3])
+            yield (veh, plane), f_world, c.pos.copy()
+
+    def ee_wrench(self) -> np.ndarray:
+        """End-effector contact wrench now: force [N] and torque about the EE point [N m], world."""
+        w = np.zeros(6)
+        if self._tip < 0:
+            return w
+        p_ee = self.data.site_xpos[self._ee_site]
+        for (veh, _plane), f, pos in self._contacts():
+            if self._vehicle_geoms[veh] == self._tip:
+                w[:3] += f
+                w[3:] += _cross(pos - p_ee, f)
+        return w
+
+    def signed_distances(self) -> np.ndarray:
+        """True signed distance [m] of every vehicle geom (rows) to every plane (columns)."""
+        m, d = self.model, self.data
+        out = np.empty((len(self._vehicle_geoms), len(self._plane_ids)))
+        for i, g in enumerate(self._vehicle_geoms):
+            for j, p in enumerate(self._plane_ids):
+                out[i, j] = mujoco.mj_geomDistance(m, d, g, p, 1e3, self._fromto)
+        return out
+
+    def applied_input(self) -> np.ndarray:
+        """Thruster forces [N] and joint torques [N m] that MuJoCo is applying now."""
+        return self.data.actuator_force.copy()
+
+    def _report(self, clipped: np.ndarray, acc: dict, ee_imp: np.ndarray) -> PlantReport:
+        now = {k: f for k, f, _ in self._contacts()}
+        contacts = tuple(
+            ContactReport(body=self._body_of(self._vehicle_geoms[k[0]]), plane=self.plane_names[k[1]],
+                          impulse=imp, peak_normal_force=peak, force=now.get(k, np.zeros(3)))
+            for k, (imp, peak) in sorted(acc.items()))
+        return PlantReport(t=self.t, h=self.state(), u_applied=self.applied_input(), clipped=clipped,
+                           contacts=contacts, ee_wrench=self.ee_wrench(), ee_impulse=ee_imp,
+                           distances=self.signed_distances())
+
+    def _body_of(self, geom: int) -> str:
+        return self.model.body(self.model.geom_bodyid[geom]).name
+
+    # ----------------------------------------------------------------------------- checks
+    def _warning_counts(self) -> np.ndarray:
+        return np.array([self.data.warning[w].number for w in _FATAL_WARNINGS])
+
+    def _raise_on_warnings(self) -> None:
+        now = self._warning_counts()
+        new = np.flatnonzero(now > self._warnings0)
+        if new.size:
+            names = ", ".join(_FATAL_WARNINGS[i].name for i in new)
+            raise PlantUnstableError(f"MuJoCo warned {names} before t = {self.t:.4f} s: the "
+                                     "simulation is unstable (too large a force or timestep?)")
+
+    @staticmethod
+    def _check_vector(v: np.ndarray, n: int, what: str) -> np.ndarray:
+        v = np.asarray(v, dtype=float)
+        if v.shape != (n,):
+            raise ValueError(f"{what} has shape {v.shape}; allowed: ({n},)")
+        if not np.all(np.isfinite(v)):
+            raise ValueError(f"{what} has non-finite entries at {np.flatnonzero(~np.isfinite(v)).tolist()}; "
+                             "allowed: finite numbers")
+        return v
+
+    def _resolve_fault(self, f: ThrusterFault) -> tuple[int, ThrusterFault]:
+        names = [t.name for t in self.params.thrusters]
+        idx = names.index(f.thruster) if isinstance(f.thruster, str) and f.thruster in names else f.thruster
+        if not isinstance(idx, int) or not 0 <= idx < self._n_thr:
+            raise ValueError(f"thruster fault {f.thruster!r} is not allowed; allowed: an index "
+                             f"0..{self._n_thr - 1} or one of {', '.join(names)}")
+        return idx, f
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product of two 3-vectors (np.cross costs ~20 us a call)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def hull_rotation(plant: Plant) -> np.ndarray:
+    """Hull rotation matrix (body to world)."""
+    return quat_wxyz_to_matrix(plant.data.xquat[plant.model.body(HULL).id])
+
+
+__all__ = ["ROOT_JOINT", "ContactReport", "FaultMode", "Plant", "PlantReport", "PlantSettings",
+           "PlantUnstableError", "ThrusterFault", "hull_rotation"]
