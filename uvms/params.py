@@ -138,6 +138,11 @@ class UVMSParams:
         hi = [t.force_range[1] for t in self.thrusters] + [lk.torque_limit for lk in self.arm.links]
         return np.array(lo), np.array(hi)
 
+    def allocation_matrix(self) -> np.ndarray:
+        """(6, n_thrusters): body-frame wrench [N, N m] about the hull origin per newton of thrust."""
+        cols = [np.concatenate([t.direction, np.cross(t.position, t.direction)]) for t in self.thrusters]
+        return np.column_stack(cols)
+
     def without_arm(self) -> UVMSParams:
         """The hull alone (zero links): for hull-only experiments."""
         arm = Arm(name="none", links=(), home=_frozen([]), end_effector=_frozen([0, 0, 0]),
