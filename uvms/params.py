@@ -75,6 +75,7 @@ class Link:
     joint_axis: np.ndarray  # (3,) unit, in the link frame (= parent frame at q = 0)
     joint_range: np.ndarray  # (2,) rad
     torque_limit: float  # N m, symmetric
+    rotor_inertia: float  # kg m^2, motor inertia reflected through the gearbox (joint armature)
     joint_damping: float  # N m s/rad, plant only
     length: float  # m
     radius: float  # m
@@ -302,6 +303,7 @@ def _link(name: str, t: _Table) -> Link:
         joint_axis=t.unit_vector("joint_axis"),
         joint_range=rng,
         torque_limit=t.scalar("torque_limit", "N*m", min_value=0.0, strict_min=True),
+        rotor_inertia=t.scalar("rotor_inertia", "kg*m^2", min_value=0.0),
         joint_damping=t.scalar("joint_damping", "N*m*s/rad", min_value=0.0),
         length=t.scalar("length", "m", min_value=0.0, strict_min=True),
         radius=t.scalar("radius", "m", min_value=0.0, strict_min=True),

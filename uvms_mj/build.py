@@ -13,7 +13,7 @@ What MuJoCo does not do by itself, and how the plant does it:
   remainder is applied by the plant as a force iterated to the implicit solution within each
   step (uvms_mj.plant). Each link's cross-flow added mass enters as the hinge armature it adds
   about its joint at the home posture (approximate: configuration-dependent and coupling terms
-  are not represented).
+  are not represented), on top of the rotor inertia reflected through the joint's gearbox.
 - The velocity-dependent fluid forces (drag, lift, added-mass Coriolis) are MuJoCo's own
   ellipsoid model on each geom: these are the plant's physics, not the paper's Fossen terms.
 """
@@ -133,6 +133,8 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
     opt = spec.option
     opt.timestep = options.timestep
     opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC  # Coulomb cone |F_t| <= mu F_n, as in the paper
+    opt.noslip_iterations = 5  # removes the creep of soft friction under sustained load
     opt.gravity = [0.0, 0.0, -scene.water.gravity if options.gravity else 0.0]
     opt.density = rho if options.fluid else 0.0
     opt.viscosity = scene.water.viscosity if options.fluid else 0.0
@@ -182,9 +184,9 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
                           ctrllimited=1, ctrlrange=[-lk.torque_limit, lk.torque_limit])
     base = [] if options.fixed_base else [0, 0, 0, 1, 0, 0, 0]
     spec.add_key(name="home", qpos=np.concatenate([base, params.arm.home]))
-    if options.added_mass and params.arm.n_joints:
-        for lk, arm in zip(params.arm.links, _link_armature(spec, params, rho), strict=True):
-            spec.joint(f"{lk.name}_joint").armature = arm
+    added = _link_armature(spec, params, rho) if options.added_mass and params.arm.n_joints else None
+    for i, lk in enumerate(params.arm.links):
+        spec.joint(f"{lk.name}_joint").armature = lk.rotor_inertia + (added[i] if added else 0.0)
     return spec
 
 
