@@ -30,5 +30,6 @@ def open_water(scene: Scene) -> Scene:
 
 
 @pytest.fixture(scope="session")
-def hull_only(params: UVMSParams) -> UVMSParams:
-    return params.without_arm()
+def hull_only() -> UVMSParams:
+    """The bare literature hull (no arm, no trim): slightly heavy, CoM at the origin, CoB 1 cm above."""
+    return load_params(trim=False).without_arm()

@@ -38,7 +38,27 @@ def test_thrusters_make_the_hull_fully_actuated() -> None:
 def test_literature_centre_of_buoyancy_converted_from_frd() -> None:
     """von Benzon et al. give r_b = [0, 0, -0.01] m in FRD: 1 cm ABOVE the CoG, i.e. +z in FLU."""
     r_b_frd = np.array([0.0, 0.0, -0.01])
-    np.testing.assert_allclose(load_params().hull.cob, FRD_TO_FLU @ r_b_frd)
+    np.testing.assert_allclose(load_params(trim=False).hull.cob, FRD_TO_FLU @ r_b_frd)
+
+
+def test_trim_is_folded_into_one_rigid_body() -> None:
+    """The trimmed hull's mass, CoM, volume and CoB are the sums and moments of its parts, and its
+    inertia about the new CoM follows the parallel-axis theorem (closed form, point-mass trim)."""
+    bare, trimmed = load_params(trim=False).hull, load_params().hull
+    parts = [(bare.mass, bare.com, bare.volume, bare.cob)] + [
+        (x.mass, x.position, x.volume, x.position) for x in trimmed.trim]
+    m = sum(p[0] for p in parts)
+    c = sum(p[0] * p[1] for p in parts) / m
+    v = sum(p[2] for p in parts)
+    b = sum(p[2] * p[3] for p in parts) / v
+    assert trimmed.mass == pytest.approx(m) and trimmed.volume == pytest.approx(v)
+    np.testing.assert_allclose(trimmed.com, c)
+    np.testing.assert_allclose(trimmed.cob, b)
+    # Inertia about the origin is additive; shifting to the CoM removes m |c|^2 terms.
+    about_origin = bare.inertia + sum(
+        (p[0] * (p[1] @ p[1] * np.eye(3) - np.outer(p[1], p[1])) for p in parts[1:]), np.zeros((3, 3)))
+    np.testing.assert_allclose(trimmed.inertia + m * (c @ c * np.eye(3) - np.outer(c, c)), about_origin, atol=1e-12)
+    assert len(load_params(trim=False).hull.trim) == 0
 
 
 BAD = [

@@ -66,6 +66,19 @@ def test_full_vehicle_gravity_and_buoyancy_forces(params, open_water) -> None:
         assert fz == pytest.approx(net, rel=1e-6)
 
 
+def test_default_vehicle_is_trimmed_level_and_slightly_buoyant(params, open_water) -> None:
+    """With the arm at home and the hull upright, MuJoCo's net hydrostatic force on the default
+    vehicle is +0.05 kg of lift (within 0.01 kg) and its roll and pitch moments about the hull
+    origin are below 0.02 N m (the trim in the parameter file was chosen for that)."""
+    plant = Plant(params, open_water)
+    h = np.zeros(params.n_states)
+    h[6:6 + params.n_joints] = params.arm.home
+    plant.set_state(h)
+    f = (plant.data.qfrc_passive - plant.data.qfrc_bias)[:6]
+    assert f[2] / open_water.water.gravity == pytest.approx(0.05, abs=0.01)
+    assert np.all(np.abs(f[3:5]) < 0.02)
+
+
 @pytest.mark.slow
 def test_tilted_hull_settles_upright(hull_only, open_water) -> None:
     """Released at 30 deg roll and 20 deg pitch with no thrust, the hull rights itself: after 60 s

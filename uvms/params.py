@@ -40,11 +40,23 @@ class Superellipsoid:
 
 
 @dataclass(frozen=True)
+class TrimMass:
+    """A trim element (foam or ballast) of the hull: a point mass [kg] with a volume [m^3] at a
+    body-frame position [m]."""
+
+    name: str
+    mass: float
+    volume: float
+    position: np.ndarray
+
+
+@dataclass(frozen=True)
 class Hull:
-    """Vehicle hull. Vectors in the body frame (x forward, y left, z up), about the body origin."""
+    """Vehicle hull AS TRIMMED: the file's hull with its trim elements folded in. Vectors in the
+    body frame (x forward, y left, z up); added mass and damping are about the body origin."""
 
     mass: float  # kg
-    inertia: np.ndarray  # (3,) kg m^2, principal, about the CoM
+    inertia: np.ndarray  # (3, 3) kg m^2, about the CoM, body axes
     com: np.ndarray  # (3,) m
     volume: float  # m^3, displaced
     cob: np.ndarray  # (3,) m
@@ -55,6 +67,7 @@ class Hull:
     linear_damping: np.ndarray  # (6,) N s/m x3, N m s/rad x3
     quadratic_damping: np.ndarray  # (6,) N s^2/m^2 x3, N m s^2/rad^2 x3
     mujoco_fluidcoef: np.ndarray  # (5,) plant only
+    trim: tuple[TrimMass, ...]  # already included in mass, inertia, com, volume, cob
 
 
 @dataclass(frozen=True)
@@ -265,13 +278,35 @@ def _six(t: _Table, unit_lin: str, unit_rot: str) -> np.ndarray:
     return _frozen(np.concatenate([lin, rot]))
 
 
-def _hull(t: _Table) -> Hull:
+def _trim(t: _Table) -> TrimMass:
+    item = TrimMass(name=t.string("name"), mass=t.scalar("mass", "kg", min_value=0.0),
+                    volume=t.scalar("volume", "m^3", min_value=0.0), position=t.quantity("position", "m", (3,)))
+    t.finish()
+    return item
+
+
+def _parallel_axis(r: np.ndarray) -> np.ndarray:
+    """|r|^2 I - r r^T: inertia of a unit point mass at r about the origin."""
+    return float(r @ r) * np.eye(3) - np.outer(r, r)
+
+
+def _hull(t: _Table, with_trim: bool) -> Hull:
+    mass = t.scalar("mass", "kg", min_value=0.0, strict_min=True)
+    inertia = t.quantity("inertia", "kg*m^2", (3,), min_value=0.0, strict_min=True)
+    com = t.quantity("com", "m", (3,))
+    volume = t.scalar("volume", "m^3", min_value=0.0, strict_min=True)
+    cob = t.quantity("cob", "m", (3,))
+    trim = tuple(_trim(x) for x in t.tables("trim")) if "trim" in t.data else ()
+    trim = trim if with_trim else ()
+    # Fold the trim point masses into one rigid body.
+    m_tot = mass + sum(x.mass for x in trim)
+    c_tot = (mass * com + sum(x.mass * x.position for x in trim)) / m_tot
+    inertia_tot = np.diag(inertia) + mass * _parallel_axis(com - c_tot) + sum(
+        (x.mass * _parallel_axis(x.position - c_tot) for x in trim), np.zeros((3, 3)))
+    v_tot = volume + sum(x.volume for x in trim)
+    b_tot = (volume * cob + sum(x.volume * x.position for x in trim)) / v_tot
     hull = Hull(
-        mass=t.scalar("mass", "kg", min_value=0.0, strict_min=True),
-        inertia=t.quantity("inertia", "kg*m^2", (3,), min_value=0.0, strict_min=True),
-        com=t.quantity("com", "m", (3,)),
-        volume=t.scalar("volume", "m^3", min_value=0.0, strict_min=True),
-        cob=t.quantity("cob", "m", (3,)),
+        mass=m_tot, inertia=_frozen(inertia_tot), com=_frozen(c_tot), volume=v_tot, cob=_frozen(b_tot),
         size=t.quantity("size", "m", (3,), min_value=0.0, strict_min=True),
         arm_mount=t.quantity("arm_mount", "m", (3,)),
         superellipsoid=_superellipsoid(t.table("superellipsoid")),
@@ -279,6 +314,7 @@ def _hull(t: _Table) -> Hull:
         linear_damping=_six(t.table("linear_damping"), "N*s/m", "N*m*s/rad"),
         quadratic_damping=_six(t.table("quadratic_damping"), "N*s^2/m^2", "N*m*s^2/rad^2"),
         mujoco_fluidcoef=t.quantity("mujoco_fluidcoef", "1", (5,), min_value=0.0),
+        trim=trim,
     )
     t.finish()
     return hull
@@ -340,8 +376,9 @@ def _arm(name: str, t: _Table, links: dict[str, Link]) -> Arm:
     return arm
 
 
-def load_params(path: str | Path = DEFAULT_VEHICLE, arm: str | None = None) -> UVMSParams:
-    """Load and validate a vehicle file; `arm` picks an arm variant (default: the file's own).
+def load_params(path: str | Path = DEFAULT_VEHICLE, arm: str | None = None, trim: bool = True) -> UVMSParams:
+    """Load and validate a vehicle file; `arm` picks an arm variant (default: the file's own);
+    `trim=False` leaves out the hull's trim elements (the bare literature hull).
 
     Raises:
         ParamError: one line naming the file, the field and what is allowed.
@@ -357,7 +394,7 @@ def load_params(path: str | Path = DEFAULT_VEHICLE, arm: str | None = None) -> U
     top.string("schema", (VEHICLE_SCHEMA,))
     name = top.string("name")
     default_arm = top.string("default_arm")
-    hull = _hull(top.table("hull"))
+    hull = _hull(top.table("hull"), trim)
     thrusters = tuple(_thruster(t) for t in top.tables("thrusters"))
     if len({t.name for t in thrusters}) != len(thrusters):
         raise top.fail("thrusters", "thruster names must be unique")

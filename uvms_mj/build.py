@@ -70,20 +70,27 @@ def _skew_sq(r: np.ndarray) -> np.ndarray:
 def _parent_without_cob(mass: float, com: np.ndarray, inertia: np.ndarray, cob: np.ndarray,
                         ) -> tuple[float, np.ndarray, np.ndarray]:
     """Mass, CoM and full inertia (about its CoM) that, with a COB_MASS point at `cob`, give the
-    composite (mass, com, diag inertia about com)."""
+    composite (mass, com, inertia about com: a (3,) principal diagonal or a (3, 3) matrix)."""
     m = mass - COB_MASS
     c = (mass * com - COB_MASS * cob) / m
-    full = np.diag(inertia) - COB_MASS * _skew_sq(cob - com) - m * _skew_sq(c - com)
+    full = _as_matrix(inertia) - COB_MASS * _skew_sq(cob - com) - m * _skew_sq(c - com)
     return m, c, full
+
+
+def _as_matrix(inertia: np.ndarray) -> np.ndarray:
+    inertia = np.asarray(inertia, float)
+    return np.diag(inertia) if inertia.shape == (3,) else inertia
 
 
 def _set_inertial(body: mujoco.MjsBody, mass: float, com: np.ndarray, inertia: np.ndarray,
                   cob: np.ndarray, volume: float, rho: float, buoyancy: bool) -> None:
     body.explicitinertial = True
     if not buoyancy:
-        body.mass, body.ipos, body.inertia = mass, com, inertia
+        full = _as_matrix(inertia)
+        body.mass, body.ipos = mass, com
+        body.fullinertia = [full[0, 0], full[1, 1], full[2, 2], full[0, 1], full[0, 2], full[1, 2]]
         return
-    m, c, full = _parent_without_cob(mass, com, np.asarray(inertia), cob)
+    m, c, full = _parent_without_cob(mass, com, inertia, cob)
     body.mass, body.ipos = m, c
     body.fullinertia = [full[0, 0], full[1, 1], full[2, 2], full[0, 1], full[0, 2], full[1, 2]]
     # The child sits at the parent's origin with its CoM at the CoB (gravcomp acts at the CoM).
@@ -156,8 +163,8 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
     for t in params.thrusters:
         hull.add_site(name=t.name, pos=t.position, quat=quat_z_to(t.direction),
                       type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.03, 0.02, 0], rgba=[0.9, 0.6, 0.1, 1])
-    hull.add_camera(name="chase", pos=[-1.6, -1.6, 0.9], mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
-                    quat=_look_quat(np.array([1.6, 1.6, -0.9])))
+    hull.add_camera(name="chase", pos=[0.9, -2.0, 0.6], mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
+                    quat=_look_quat(np.array([-0.7, 2.0, -0.7])))
 
     parent, offset = hull, np.asarray(h.arm_mount)
     for i, lk in enumerate(params.arm.links):
@@ -203,6 +210,9 @@ def _look_quat(forward: np.ndarray) -> np.ndarray:
 
 
 def _scene_geometry(spec: mujoco.MjSpec, scene: Scene) -> None:
+    spec.add_texture(name="water", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.1, 0.35, 0.5],
+                     rgb2=[0.0, 0.05, 0.1], width=256, height=256)
     spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
                      builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.25, 0.3, 0.3],
                      rgb2=[0.35, 0.4, 0.4], width=256, height=256)
@@ -212,7 +222,7 @@ def _scene_geometry(spec: mujoco.MjSpec, scene: Scene) -> None:
     for p in scene.planes:
         spec.worldbody.add_geom(
             name=f"plane_{p.name}", default=obs, type=mujoco.mjtGeom.mjGEOM_PLANE,
-            pos=p.point, quat=quat_z_to(p.normal), size=[4, 4, 0.25], material="grid",
+            pos=p.point, quat=quat_z_to(p.normal), size=[10, 10, 0.25], material="grid",
             friction=[p.friction, 0.005, 0.0001], condim=3 if p.friction > 0 else 1)
 
 
