@@ -14,8 +14,12 @@ What MuJoCo does not do by itself, and how the plant does it:
   step (uvms_mj.plant). Each link's cross-flow added mass enters as the hinge armature it adds
   about its joint at the home posture (approximate: configuration-dependent and coupling terms
   are not represented), on top of the rotor inertia reflected through the joint's gearbox.
-- The velocity-dependent fluid forces (drag, lift, added-mass Coriolis) are MuJoCo's own
-  ellipsoid model on each geom: these are the plant's physics, not the paper's Fossen terms.
+- The velocity-dependent fluid forces (drag, lift, added-mass Coriolis and Munk moments) are
+  MuJoCo's own ellipsoid model on each geom: the plant's physics, not the paper's Fossen terms.
+  MuJoCo derives the added-mass part from the ellipsoid's potential-flow virtual mass, so the hull
+  carries the fluid model on a separate, non-colliding ellipsoid `hull_fluid` whose semi-axes are
+  solved for so that its virtual mass equals the parameter file's translational added mass (the
+  collision ellipsoid, the frame's bounding box, would have 2-5 times the Munk moments).
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from numpy.polynomial.legendre import leggauss
 
 from uvms.params import Link, UVMSParams
 from uvms.scene import Scene
@@ -51,6 +56,36 @@ class BuildOptions:
     def __post_init__(self) -> None:
         if not 0 < self.timestep <= 0.01:
             raise ValueError(f"timestep {self.timestep} s is not allowed; allowed: 0 < timestep <= 0.01 s")
+
+
+_GAUSS_T, _GAUSS_W = leggauss(200)
+
+
+def ellipsoid_virtual_mass(semi_axes: np.ndarray, rho: float) -> np.ndarray:
+    """Potential-flow added mass [kg] of an ellipsoid along its axes (Lamb 1932, section 373; the
+    formula MuJoCo's ellipsoid fluid model uses): rho V k_i / (2 - k_i), with
+    k_i = abc int_0^inf dl / ((r_i^2 + l) sqrt((a^2 + l)(b^2 + l)(c^2 + l))). A sphere gives rho V / 2."""
+    s = np.asarray(semi_axes, float)
+    t, w = 0.5 * (_GAUSS_T + 1), 0.5 * _GAUSS_W
+    scale = float(np.mean(s)) ** 2
+    lam, dlam = scale * t / (1 - t), scale / (1 - t) ** 2  # maps [0, 1) onto [0, inf)
+    delta = np.sqrt(np.prod([r * r + lam for r in s], axis=0))
+    k = np.array([np.prod(s) * np.sum(w * dlam / ((r * r + lam) * delta)) for r in s])
+    return rho * (4 / 3) * np.pi * np.prod(s) * k / (2 - k)
+
+
+def fluid_proxy_semi_axes(added_mass: np.ndarray, rho: float) -> np.ndarray:
+    """Semi-axes [m] of the ellipsoid whose virtual mass is `added_mass` (3,) [kg] (Newton on logs)."""
+    target = np.log(np.asarray(added_mass, float))
+    x = np.log(np.cbrt(np.asarray(added_mass) / (0.5 * rho * 4 / 3 * np.pi)))  # spheres of that mass
+    for _ in range(50):
+        f = np.log(ellipsoid_virtual_mass(np.exp(x), rho)) - target
+        if np.max(np.abs(f)) < 1e-12:
+            return np.exp(x)
+        J = np.column_stack([(np.log(ellipsoid_virtual_mass(np.exp(x + e), rho)) - target - f) / 1e-7
+                             for e in 1e-7 * np.eye(3)])
+        x = x - np.linalg.solve(J, f)
+    raise ValueError(f"added mass {added_mass} kg: no ellipsoid has this virtual mass in water of {rho} kg/m^3")
 
 
 def quat_z_to(direction: np.ndarray) -> np.ndarray:
@@ -99,6 +134,11 @@ def _set_inertial(body: mujoco.MjsBody, mass: float, com: np.ndarray, inertia: n
     child.mass, child.ipos = COB_MASS, cob
     child.inertia = [1e-9, 1e-9, 1e-9]
     child.gravcomp = rho * volume / COB_MASS
+    # MuJoCo applies its inertia-box fluid model to a body without ellipsoid-model geoms; a 1 mm
+    # non-colliding sphere with zero coefficients opts the CoB body into the (here negligible)
+    # ellipsoid model instead.
+    child.add_geom(name=f"{body.name}_cob_marker", type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=cob, size=[1e-3, 0, 0],
+                   contype=0, conaffinity=0, group=4, density=0.0, fluid_ellipsoid=1, fluid_coefs=[0, 0, 0, 0, 0])
 
 
 def _defaults(spec: mujoco.MjSpec) -> None:
@@ -159,7 +199,10 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
         hull.add_joint(name=ROOT_JOINT, type=mujoco.mjtJoint.mjJNT_FREE)
     vcls = spec.find_default(VEHICLE_CLASS)
     hull.add_geom(name="hull_geom", default=vcls, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID,
-                  size=h.size / 2, fluid_coefs=h.mujoco_fluidcoef, rgba=[0.15, 0.35, 0.8, 0.9])
+                  size=h.size / 2, fluid_ellipsoid=0, rgba=[0.15, 0.35, 0.8, 0.9])
+    hull.add_geom(name="hull_fluid", default=vcls, type=mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+                  size=fluid_proxy_semi_axes(h.added_mass[:3], rho), contype=0, group=3,
+                  fluid_coefs=h.mujoco_fluidcoef, rgba=[0.3, 0.8, 0.9, 0.3])
     for t in params.thrusters:
         hull.add_site(name=t.name, pos=t.position, quat=quat_z_to(t.direction),
                       type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.03, 0.02, 0], rgba=[0.9, 0.6, 0.1, 1])
