@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import mujoco
 import numpy as np
 import pytest
 from helpers import hull_mass_matrix, neutral, with_hull, zero_input
@@ -99,3 +100,24 @@ def test_velocity_dependent_added_mass_forces_follow_the_parameter_file(hull_onl
             f = plant.data.qfrc_passive[:6]  # hull level: body axes = world axes
             np.testing.assert_allclose(f[:3], np.cross(A * v, omega), rtol=1e-5, atol=1e-6)
         np.testing.assert_allclose(f[3:], np.cross(A * v, v), rtol=1e-5, atol=1e-6)
+
+
+def test_link_added_mass_about_the_elbow_at_home(params, open_water) -> None:
+    """Links, approximately: at the home posture the elbow carries the elbow and wrist links in a
+    straight line perpendicular to its axis, so their cross-flow added mass m_t = C_a rho pi r^2 l
+    adds I_A = sum m_t (d^2 + l^2 / 12) about the elbow (d: distance of each link's centre from the
+    joint). The elbow's entry of MuJoCo's joint-space inertia grows by exactly that (1e-9)."""
+    elbow, wrist = params.arm.links[2], params.arm.links[3]
+    rho = open_water.water.density
+    I_A = 0.0
+    for lk, dk in ((elbow, elbow.length / 2), (wrist, elbow.length + wrist.length / 2)):
+        m_t = lk.added_mass_coefficient * rho * np.pi * lk.radius**2 * lk.length
+        I_A += m_t * (dk**2 + lk.length**2 / 12)
+    elbow_inertia = {}
+    for added in (True, False):
+        plant = Plant(params, open_water, PlantSettings(build=BuildOptions(fixed_base=True, added_mass=added)))
+        M = np.zeros((plant.model.nv, plant.model.nv))
+        mujoco.mj_fullM(plant.model, plant.data, M)
+        elbow_inertia[added] = M[2, 2]
+    assert elbow_inertia[True] - elbow_inertia[False] == pytest.approx(I_A, rel=1e-9)
+    assert I_A > 0.1 * elbow_inertia[False]  # large enough to matter

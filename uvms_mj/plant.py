@@ -13,13 +13,12 @@ from enum import Enum
 import mujoco
 import numpy as np
 
-from uvms.conventions import mujoco_to_state, quat_wxyz_to_matrix, state_to_mujoco
+from uvms.conventions import mujoco_to_state, state_to_mujoco
 from uvms.params import UVMSParams
 from uvms.scene import Current, Scene
 from uvms_mj.build import (
     EE_SITE,
     HULL,
-    ROOT_JOINT,
     TIP_GEOM,
     BuildOptions,
     compile_model,
@@ -62,8 +61,9 @@ class ThrusterFault:
 
 @dataclass(frozen=True)
 class ContactReport:
-    """Contact of one vehicle body with one plane over a control period."""
+    """Contact of one vehicle geom (of body `body`) with one plane over a control period."""
 
+    geom: str
     body: str
     plane: str
     impulse: np.ndarray  # (3,) N s, world frame, force on the vehicle integrated over the period
@@ -284,7 +284,8 @@ class Plant:
     def _report(self, clipped: np.ndarray, acc: dict, ee_imp: np.ndarray) -> PlantReport:
         now = {k: f for k, f, _ in self._contacts()}
         contacts = tuple(
-            ContactReport(body=self._body_of(self._vehicle_geoms[k[0]]), plane=self.plane_names[k[1]],
+            ContactReport(geom=self.geom_names[k[0]], body=self._body_of(self._vehicle_geoms[k[0]]),
+                          plane=self.plane_names[k[1]],
                           impulse=imp, peak_normal_force=peak, force=now.get(k, np.zeros(3)))
             for k, (imp, peak) in sorted(acc.items()))
         return PlantReport(t=self.t, h=self.state(), u_applied=self.applied_input(), clipped=clipped,
@@ -330,10 +331,5 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
-def hull_rotation(plant: Plant) -> np.ndarray:
-    """Hull rotation matrix (body to world)."""
-    return quat_wxyz_to_matrix(plant.data.xquat[plant.model.body(HULL).id])
-
-
-__all__ = ["ROOT_JOINT", "ContactReport", "FaultMode", "Plant", "PlantReport", "PlantSettings",
-           "PlantUnstableError", "ThrusterFault", "hull_rotation"]
+__all__ = ["ContactReport", "FaultMode", "Plant", "PlantReport", "PlantSettings", "PlantUnstableError",
+           "ThrusterFault"]
