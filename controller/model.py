@@ -1,0 +1,261 @@
+"""The paper's UVMS model (Section III) by Kane's method in CasADi, from the parameter file.
+
+Generalized speeds nu = [v, omega, qdot_m]: hull body-frame linear and angular velocity and joint
+rates; state h = [x y z phi theta psi q_m | nu]. For every body k Kane's method takes the partial
+velocities V_k = d v_k / d nu of its points and the partial angular velocities W_k = d omega_k / d nu
+(here by CasADi's exact differentiation of the velocity expressions, which are linear in nu), and
+sums the generalized active forces sum V^T F + W^T T against the generalized inertia forces
+sum V^T m a + W^T (I alpha + omega x I omega), all expressed in the hull frame B (Tarn et al. 1996).
+Accelerations are inertial ones expressed in B: a = d/dt(v_B) + omega x v_B.
+
+Forces: gravity at each CoM; buoyancy rho V g at each centre of buoyancy; added mass of the hull
+(Fossen's diagonal M_A about the hull origin) and of every link (cross-flow, about its centre), on
+the velocity relative to the current, with their Coriolis and centripetal terms (Fossen 2011,
+eq. 6.43, applied per body in its own frame); Froude-Krylov force rho V a_current for a
+time-varying current; hull drag (Fossen linear + quadratic, relative velocity); link cross-flow
+drag integrated along each link by Gauss-Legendre points (so it yields moments); thrusters through
+the allocation matrix; joint torques and rotor inertias; the end-effector contact wrench given in
+the obstacle frame (paper eq. F_contact: J_v^T blockdiag(R_w, R_w) F^w).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from controller.kinematics import euler_rates, euler_zyx, link_frames, skew
+from uvms.params import UVMSParams
+from uvms.scene import Water
+
+TERMS = ("coriolis", "gravity", "buoyancy", "added_mass", "froude_krylov", "drag", "thrust", "joint_torque",
+         "contact")
+
+
+@dataclass(frozen=True)
+class ModelOptions:
+    """Switches for physics experiments; the defaults are the paper's full model."""
+
+    gravity: bool = True
+    buoyancy: bool = True
+    added_mass: bool = True
+    drag: bool = True
+    rotor_inertia: bool = True
+    abs_smoothing: float = 1e-4  # m/s or rad/s: |x| ~ sqrt(x^2 + s^2) in the drag laws (smooth NLPs)
+    link_drag_points: int = 3  # Gauss-Legendre points per link for cross-flow drag
+
+
+class ModelError(ValueError):
+    """The parameters cannot make a valid model (singular M, degenerate link, no volume)."""
+
+
+def _sabs(x: ca.SX, s: float) -> ca.SX:
+    return ca.sqrt(x * x + s * s)
+
+
+class UVMSModel:
+    """CasADi functions of the paper's model; each also callable with numpy arrays.
+
+    Inputs of the dynamics: h (n_s), u (n_u: thruster forces N, joint torques N m), Fw (6: contact
+    force N and torque N m at the end-effector, obstacle frame), Rw (3x3: obstacle frame -> world),
+    vc (3: current velocity, world, m/s), ac (3: its time derivative, m/s^2).
+    """
+
+    def __init__(self, params: UVMSParams, water: Water, options: ModelOptions = ModelOptions()):
+        self.params, self.water, self.options = params, water, options
+        _validate(params)
+        n = params.n_joints
+        self.n_joints, self.n_speeds, self.n_states, self.n_inputs = n, 6 + n, 2 * (6 + n), params.n_inputs
+        h = ca.SX.sym("h", self.n_states)
+        u = ca.SX.sym("u", self.n_inputs)
+        Fw, Rw = ca.SX.sym("Fw", 6), ca.SX.sym("Rw", 3, 3)
+        vc, ac = ca.SX.sym("vc", 3), ca.SX.sym("ac", 3)
+        dt = ca.SX.sym("dt")
+        self._sym = (h, u, Fw, Rw, vc, ac)
+        M, terms, kin = self._kane(h, u, Fw, Rw, vc, ac)
+        rhs = sum(terms.values(), ca.SX.zeros(self.n_speeds))
+        nu_dot = ca.solve(M, rhs)
+        eta_dot = ca.vertcat(kin["R"] @ h[n + 6:n + 9], euler_rates(h[3:6], h[n + 9:n + 12]), h[12 + n:])
+        hdot = ca.vertcat(eta_dot, nu_dot)
+        args, names = [h, u, Fw, Rw, vc, ac], ["h", "u", "Fw", "Rw", "vc", "ac"]
+        self.f = ca.Function("f", args, [hdot], names, ["hdot"])
+        self.mass_matrix = ca.Function("M", [h], [M], ["h"], ["M"])
+        self.generalized_forces = ca.Function("Q", args, list(terms.values()), names, list(terms))
+        self.bias = ca.Function("bias", [h, vc, ac], [-(terms["coriolis"] + terms["gravity"] + terms["buoyancy"]
+                                                          + terms["added_mass"] + terms["froude_krylov"]
+                                                          + terms["drag"])], ["h", "vc", "ac"], ["bias"])
+        self.ee_pose = ca.Function("ee_pose", [h], [kin["x_ee"], kin["R_ee"]], ["h"], ["x_ee", "R_ee"])
+        self.jacobian_ee = ca.Function("Jv", [h], [kin["Jv"]], ["h"], ["Jv"])
+        self.link_poses = ca.Function("link_poses", [h], kin["link_x"] + kin["link_R"])
+        self.rk4 = self._rk4(h, u, Fw, Rw, vc, ac, dt)
+
+    # ------------------------------------------------------------------------------------------
+    def _kane(self, h, u, Fw, Rw, vc, ac):
+        p, o, w = self.params, self.options, self.water
+        n, N = self.n_joints, self.n_speeds
+        qm, nu = h[6:6 + n], h[6 + n:]
+        v, om, qd = nu[0:3], nu[3:6], nu[6:]
+        R = euler_zyx(h[3], h[4], h[5])
+        g_B = R.T @ ca.DM([0.0, 0.0, -w.gravity])
+        vc_B, ac_B = R.T @ vc, R.T @ ac
+        fr = link_frames(p, qm)
+        terms = {k: ca.SX.zeros(N) for k in TERMS}
+        M = ca.SX.zeros(N, N)
+
+        def point_velocity(pos: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
+            """Inertial velocity (in B) of a point at pos(q_m), its partial velocities, and its
+            acceleration with nu_dot = 0."""
+            vel = v + ca.cross(om, pos) + ca.jacobian(pos, qm) @ qd if n else v + ca.cross(om, pos)
+            acc0 = (ca.jacobian(vel, qm) @ qd if n else 0) + ca.cross(om, vel)
+            return vel, ca.jacobian(vel, nu), acc0
+
+        # Bodies: the hull (k = -1) and the links. Angular velocity, its partials and alpha(nu_dot=0).
+        bodies = [("hull", ca.SX.eye(3), om, None)]
+        w_rel = om
+        for k, lk in enumerate(p.arm.links):
+            w_rel = w_rel + fr.z[k] * qd[k]
+            bodies.append((lk.name, fr.C[k], w_rel, k))
+
+        for _name, C, omk, k in bodies:
+            W = ca.jacobian(omk, nu)
+            alpha0 = (ca.jacobian(omk, qm) @ qd if n else 0) + ca.cross(om, omk)
+            if k is None:
+                mass, com, cob, vol, inertia = p.hull.mass, ca.DM(p.hull.com), ca.DM(p.hull.cob), p.hull.volume, \
+                    ca.DM(p.hull.inertia)
+                pos = lambda r: ca.DM(r)  # noqa: E731
+            else:
+                lk = p.arm.links[k]
+                mass, vol, inertia = lk.mass, lk.volume, C @ ca.DM(np.diag(lk.inertia)) @ C.T
+                pos = lambda r, k=k: fr.point(k, r)  # noqa: E731
+                com, cob = pos(lk.com), pos(lk.cob)
+            # rigid body
+            _, V, acc0 = point_velocity(com)
+            M += mass * V.T @ V + W.T @ inertia @ W
+            terms["coriolis"] -= mass * V.T @ acc0 + W.T @ (inertia @ alpha0 + ca.cross(omk, inertia @ omk))
+            if o.gravity:
+                terms["gravity"] += V.T @ (mass * g_B)
+                if o.buoyancy:
+                    _, Vb, _ = point_velocity(cob)
+                    terms["buoyancy"] -= Vb.T @ (w.density * vol * g_B)
+            _, Vb, _ = point_velocity(cob)
+            terms["froude_krylov"] += Vb.T @ (w.density * vol * ac_B)
+            # added mass about the body's hydrodynamic centre, in its own frame
+            if o.added_mass:
+                if k is None:
+                    centre, A = ca.DM.zeros(3), p.hull.added_mass
+                else:
+                    centre, A = pos([lk.length / 2, 0.0, 0.0]), _link_added_mass(lk, w.density)
+                vel, Vc, accc0 = point_velocity(centre)
+                Al, Aa = ca.DM(A[:3]), ca.DM(A[3:])
+                ur, wr = C.T @ (vel - vc_B), C.T @ omk
+                M += Vc.T @ C @ ca.diag(Al) @ C.T @ Vc + W.T @ C @ ca.diag(Aa) @ C.T @ W
+                udot0 = C.T @ (accc0 - ac_B) - ca.cross(wr, ur)
+                F = -Al * udot0 + ca.cross(Al * ur, wr)
+                T = -Aa * (C.T @ alpha0) + ca.cross(Al * ur, ur) + ca.cross(Aa * wr, wr)
+                terms["added_mass"] += Vc.T @ (C @ F) + W.T @ (C @ T)
+            if o.drag:
+                terms["drag"] += self._drag(k, C, point_velocity, pos, omk, vc_B)
+
+        if o.rotor_inertia:
+            for k, lk in enumerate(p.arm.links):
+                M[6 + k, 6 + k] += lk.rotor_inertia
+        n_thr = p.n_thrusters
+        terms["thrust"] = ca.vertcat(ca.DM(p.allocation_matrix()) @ u[:n_thr], ca.SX.zeros(n))
+        terms["joint_torque"] = ca.vertcat(ca.SX.zeros(6), u[n_thr:])
+        # end-effector point and the contact wrench (paper eq. F_contact)
+        if n:
+            p_ee = fr.point(n - 1, p.arm.end_effector)
+            C_last, om_last = bodies[-1][1], bodies[-1][2]
+        else:
+            p_ee, C_last, om_last = ca.DM.zeros(3), ca.SX.eye(3), om
+        _, V_ee, _ = point_velocity(p_ee)
+        W_last = ca.jacobian(om_last, nu)
+        terms["contact"] = V_ee.T @ (R.T @ Rw @ Fw[:3]) + W_last.T @ (R.T @ Rw @ Fw[3:])
+        x = h[0:3]
+        kin = {
+            "R": R,
+            "x_ee": x + R @ p_ee,
+            "R_ee": R @ C_last,
+            "Jv": ca.vertcat(R @ V_ee, R @ W_last),
+            "link_x": [x + R @ fr.o[k] for k in range(n)],
+            "link_R": [R @ fr.C[k] for k in range(n)],
+        }
+        return M, terms, kin
+
+    def _drag(self, k, C, point_velocity, pos, omk, vc_B) -> ca.SX:
+        p, s = self.params, self.options.abs_smoothing
+        if k is None:
+            vel, _, _ = point_velocity(ca.DM.zeros(3))
+            ur, wr = vel - vc_B, omk
+            lin, quad = p.hull.linear_damping, p.hull.quadratic_damping
+            F = -(ca.DM(lin[:3]) + ca.DM(quad[:3]) * _sabs(ur, s)) * ur
+            T = -(ca.DM(lin[3:]) + ca.DM(quad[3:]) * _sabs(wr, s)) * wr
+            return ca.vertcat(F, T, ca.SX.zeros(self.n_joints))
+        lk = p.arm.links[k]
+        xs, ws = np.polynomial.legendre.leggauss(self.options.link_drag_points)
+        Q = ca.SX.zeros(self.n_speeds)
+        for xi, wi in zip(xs, ws, strict=True):
+            sx = 0.5 * lk.length * (xi + 1)
+            vel, V, _ = point_velocity(pos([sx, 0.0, 0.0]))
+            ur = C.T @ (vel - vc_B)
+            cross = ca.vertcat(0, ur[1], ur[2])
+            speed = ca.sqrt(ur[1] ** 2 + ur[2] ** 2 + s * s)
+            f = -0.5 * self.water.density * lk.drag_coefficient * 2 * lk.radius * speed * cross
+            Q += V.T @ (C @ f) * (0.5 * lk.length * wi)
+        return Q
+
+    def _rk4(self, h, u, Fw, Rw, vc, ac, dt) -> ca.Function:
+        """One RK4 step of duration dt [s] (an input: Mode II optimizes it), inputs held."""
+        def f(x):
+            return self.f(x, u, Fw, Rw, vc, ac)
+
+        k1 = f(h)
+        k2 = f(h + dt / 2 * k1)
+        k3 = f(h + dt / 2 * k2)
+        k4 = f(h + dt * k3)
+        h_next = h + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        return ca.Function("rk4", [h, u, Fw, Rw, vc, ac, dt], [h_next], ["h", "u", "Fw", "Rw", "vc", "ac", "dt"],
+                           ["h_next"])
+
+    # ------------------------------------------------------------------------------------------
+    def defaults(self, Fw=None, Rw=None, vc=None, ac=None) -> tuple[np.ndarray, ...]:
+        """Fill the optional inputs: no contact, identity obstacle frame, still water."""
+        return (np.zeros(6) if Fw is None else Fw, np.eye(3) if Rw is None else Rw,
+                np.zeros(3) if vc is None else vc, np.zeros(3) if ac is None else ac)
+
+    def hdot(self, h, u, Fw=None, Rw=None, vc=None, ac=None) -> np.ndarray:
+        """State derivative from numpy arrays."""
+        return np.asarray(self.f(h, u, *self.defaults(Fw, Rw, vc, ac))).ravel()
+
+    def step(self, h, u, dt: float, Fw=None, Rw=None, vc=None, ac=None) -> np.ndarray:
+        """One RK4 step from numpy arrays."""
+        return np.asarray(self.rk4(h, u, *self.defaults(Fw, Rw, vc, ac), dt)).ravel()
+
+
+def _link_added_mass(lk, rho: float) -> np.ndarray:
+    """Cross-flow added mass of a link about its centre, link frame (axis x): kg x3, kg m^2 x3."""
+    mt = lk.added_mass_coefficient * rho * np.pi * lk.radius**2 * lk.length
+    return np.array([0.0, mt, mt, 0.0, mt * lk.length**2 / 12, mt * lk.length**2 / 12])
+
+
+def _validate(p: UVMSParams) -> None:
+    """Reject parameters that cannot make a model (one clear line each)."""
+    if p.hull.volume <= 0:
+        raise ModelError(f"hull volume {p.hull.volume} m^3: a body with no volume; allowed: > 0")
+    for lk in p.arm.links:
+        if lk.length <= 0:
+            raise ModelError(f"link {lk.name!r} has length {lk.length} m; allowed: > 0")
+        if lk.volume <= 0:
+            raise ModelError(f"link {lk.name!r} has volume {lk.volume} m^3: a body with no volume; allowed: > 0")
+    eig = np.linalg.eigvalsh(np.asarray(p.hull.inertia))
+    if p.hull.mass <= 0 or eig.min() <= 0:
+        raise ModelError(f"hull mass {p.hull.mass} kg / inertia eigenvalues {eig}: M would be singular; "
+                         "allowed: positive mass and positive-definite inertia")
+    for lk in p.arm.links:
+        if lk.mass <= 0 or np.min(lk.inertia) <= 0:
+            raise ModelError(f"link {lk.name!r}: mass {lk.mass} kg, inertia {lk.inertia.tolist()}: M would be "
+                             "singular; allowed: positive mass and inertia")
+
+
+__all__ = ["TERMS", "ModelError", "ModelOptions", "UVMSModel", "skew"]
