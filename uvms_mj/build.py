@@ -52,6 +52,7 @@ class BuildOptions:
     gravity: bool = True
     added_mass: bool = True
     joint_damping: bool = True  # the parameter file's gearbox friction (not in the paper's model)
+    joint_limits: bool = True  # joint range as a MuJoCo limit (the paper's model leaves it to the OCP)
     fixed_base: bool = False  # hull welded to the world (manipulation experiments)
 
     def __post_init__(self) -> None:
@@ -215,7 +216,7 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
         body = parent.add_body(name=lk.name, pos=offset)
         _set_inertial(body, lk.mass, lk.com, lk.inertia, lk.cob, lk.volume, rho, buoy)
         body.add_joint(name=f"{lk.name}_joint", type=mujoco.mjtJoint.mjJNT_HINGE, axis=lk.joint_axis,
-                       range=lk.joint_range, limited=1,
+                       range=lk.joint_range, limited=int(options.joint_limits),
                        damping=lk.joint_damping if options.joint_damping else 0.0)
         body.add_geom(name=f"{lk.name}_geom", default=vcls, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                       fromto=[0, 0, 0, lk.length, 0, 0], size=[lk.radius, 0, 0],
