@@ -26,9 +26,12 @@ import casadi as ca
 import numpy as np
 
 from controller.kinematics import euler_rates, euler_zyx, link_frames, skew
+from controller.superellipsoid import closing_speed, plane_distance
 from uvms.params import UVMSParams
 from uvms.scene import Water
 
+# A link's superellipsoid frame in its link frame: x_se = y_link, y_se = z_link, z_se = x_link (columns).
+LINK_TO_SUPERELLIPSOID = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 TERMS = ("coriolis", "gravity", "buoyancy", "added_mass", "froude_krylov", "drag", "thrust", "joint_torque",
          "contact")
 
@@ -88,6 +91,8 @@ class UVMSModel:
         self.ee_pose = ca.Function("ee_pose", [h], [kin["x_ee"], kin["R_ee"]], ["h"], ["x_ee", "R_ee"])
         self.jacobian_ee = ca.Function("Jv", [h], [kin["Jv"]], ["h"], ["Jv"])
         self.link_poses = ca.Function("link_poses", [h], kin["link_x"] + kin["link_R"])
+        self.body_names = ("hull", *(lk.name for lk in params.arm.links))
+        self._distance_functions(h, kin)
         self.rk4 = self._rk4(h, u, Fw, Rw, vc, ac, dt)
 
     # ------------------------------------------------------------------------------------------
@@ -117,7 +122,17 @@ class UVMSModel:
             w_rel = w_rel + fr.z[k] * qd[k]
             bodies.append((lk.name, fr.C[k], w_rel, k))
 
+        se_c, se_R, se_v, se_w = [], [], [], []
+        P = ca.DM(LINK_TO_SUPERELLIPSOID)
         for _name, C, omk, k in bodies:
+            # the body's superellipsoid: centre, rotation (world), centre velocity (world), omega (its frame)
+            centre_B = ca.DM.zeros(3) if k is None else fr.point(k, [p.arm.links[k].length / 2, 0.0, 0.0])
+            vel_c, _, _ = point_velocity(centre_B)
+            Rse = C if k is None else C @ P
+            se_c.append(h[0:3] + R @ centre_B)
+            se_R.append(R @ Rse)
+            se_v.append(R @ vel_c)
+            se_w.append(Rse.T @ omk)
             W = ca.jacobian(omk, nu)
             alpha0 = (ca.jacobian(omk, qm) @ qd if n else 0) + ca.cross(om, omk)
             if k is None:
@@ -180,8 +195,23 @@ class UVMSModel:
             "Jv": ca.vertcat(R @ V_ee, R @ W_last),
             "link_x": [x + R @ fr.o[k] for k in range(n)],
             "link_R": [R @ fr.C[k] for k in range(n)],
+            "se_c": se_c, "se_R": se_R, "se_v": se_v, "se_w": se_w,
         }
         return M, terms, kin
+
+    def _distance_functions(self, h: ca.SX, kin: dict) -> None:
+        """Signed distance of every body's superellipsoid to a plane n.x + D = 0 and its closing
+        speed (paper eq. Distance), in body order hull, links."""
+        normal, offset = ca.SX.sym("n", 3), ca.SX.sym("D")
+        shapes = [self.params.hull.superellipsoid] + [lk.superellipsoid for lk in self.params.arm.links]
+        d, dd = [], []
+        for se, c, Rse, v, w in zip(shapes, kin["se_c"], kin["se_R"], kin["se_v"], kin["se_w"], strict=True):
+            d.append(plane_distance(ca.DM(se.semi_axes), se.eps1, se.eps2, c, Rse, normal, offset))
+            dd.append(closing_speed(ca.DM(se.semi_axes), se.eps1, se.eps2, Rse, normal, v, w))
+        self.distances = ca.Function("distances", [h, normal, offset], [ca.vertcat(*d)], ["h", "n", "D"], ["d"])
+        self.closing_speeds = ca.Function("closing_speeds", [h, normal, offset], [ca.vertcat(*dd)],
+                                          ["h", "n", "D"], ["d_dot"])
+        self.superellipsoid_poses = ca.Function("superellipsoid_poses", [h], kin["se_c"] + kin["se_R"])
 
     def _drag(self, k, C, point_velocity, pos, omk, vc_B) -> ca.SX:
         p, s = self.params, self.options.abs_smoothing
