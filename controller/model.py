@@ -26,7 +26,7 @@ import casadi as ca
 import numpy as np
 
 from controller.kinematics import euler_rates, euler_zyx, link_frames, skew
-from controller.superellipsoid import closing_speed, plane_distance
+from controller.superellipsoid import closing_speed, plane_distance, superellipsoid_mesh
 from uvms.params import UVMSParams
 from uvms.scene import Water
 
@@ -247,6 +247,13 @@ class UVMSModel:
         h_next = h + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         return ca.Function("rk4", [h, u, Fw, Rw, vc, ac, dt], [h_next], ["h", "u", "Fw", "Rw", "vc", "ac", "dt"],
                            ["h_next"])
+
+    def body_meshes(self, resolution: int = 64) -> dict:
+        """trimesh meshes of every body's superellipsoid in its own frame (place them with
+        `superellipsoid_poses(h)`: centres, then rotations), for visualisation."""
+        shapes = [self.params.hull.superellipsoid] + [lk.superellipsoid for lk in self.params.arm.links]
+        return {name: superellipsoid_mesh(se.semi_axes, se.eps1, se.eps2, resolution)
+                for name, se in zip(self.body_names, shapes, strict=True)}
 
     # ------------------------------------------------------------------------------------------
     def defaults(self, Fw=None, Rw=None, vc=None, ac=None) -> tuple[np.ndarray, ...]:

@@ -8,7 +8,6 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from controller.model import UVMSModel
-from controller.superellipsoid import superellipsoid_mesh
 from uvms.scene import Plane
 from uvms_mj.plant import Plant
 
@@ -36,8 +35,7 @@ def test_distances_match_meshes_placed_by_mujoco(params, scene, model) -> None:
     random planes within 1 mm (the issue's tolerance), including planes the bodies cut."""
     plant = Plant(params, scene.with_planes(()))
     m, d = plant.model, plant.data
-    shapes = [params.hull.superellipsoid] + [lk.superellipsoid for lk in params.arm.links]
-    meshes = [superellipsoid_mesh(se.semi_axes, se.eps1, se.eps2, resolution=256) for se in shapes]
+    meshes = list(model.body_meshes(resolution=256).values())
     geoms = ["hull_geom"] + [f"{lk.name}_geom" for lk in params.arm.links]
     negative = 0
     for _ in range(20):
