@@ -113,3 +113,20 @@ def test_parameters_are_frozen(params) -> None:
         params.hull.mass = 1.0
     with pytest.raises(ValueError):
         params.hull.inertia[0] = 1.0
+
+
+@pytest.mark.parametrize(("old", "new", "fragment"), [
+    ('normal = { value = [-1.0, 0.0, 0.0]', 'normal = { value = [-1.0, 0.5, 0.0]', "planes[0].normal"),
+    ('times = { value = [0.0], unit = "s"', 'times = { value = [0.0, 0.0], unit = "s"', "strictly increasing"),
+    ('density = { value = 1000.0', 'density = { value = -1000.0', "water.density"),
+])
+def test_bad_scene_gives_one_clear_line(tmp_path: Path, old: str, new: str, fragment: str) -> None:
+    from uvms.scene import DEFAULT_SCENE, load_scene
+
+    text = DEFAULT_SCENE.read_text()
+    assert old in text
+    path = tmp_path / DEFAULT_SCENE.name
+    path.write_text(text.replace(old, new, 1))
+    with pytest.raises(ParamError) as err:
+        load_scene(path)
+    assert "\n" not in str(err.value) and fragment in str(err.value), str(err.value)

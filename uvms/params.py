@@ -376,6 +376,19 @@ def _arm(name: str, t: _Table, links: dict[str, Link]) -> Arm:
     return arm
 
 
+def read_table(path: Path, kind: str, schema: str) -> _Table:
+    """The top table of a TOML file of the given schema, or a one-line ParamError."""
+    try:
+        raw = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ParamError(f"{path}: no such {kind} file") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ParamError(f"{path.name}: not valid TOML: {e}") from None
+    top = _Table(raw, path, "")
+    top.string("schema", (schema,))
+    return top
+
+
 def load_params(path: str | Path = DEFAULT_VEHICLE, arm: str | None = None, trim: bool = True) -> UVMSParams:
     """Load and validate a vehicle file; `arm` picks an arm variant (default: the file's own);
     `trim=False` leaves out the hull's trim elements (the bare literature hull).
@@ -384,14 +397,7 @@ def load_params(path: str | Path = DEFAULT_VEHICLE, arm: str | None = None, trim
         ParamError: one line naming the file, the field and what is allowed.
     """
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ParamError(f"{path}: no such vehicle file") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ParamError(f"{path.name}: not valid TOML: {e}") from None
-    top = _Table(raw, path, "")
-    top.string("schema", (VEHICLE_SCHEMA,))
+    top = read_table(path, "vehicle", VEHICLE_SCHEMA)
     name = top.string("name")
     default_arm = top.string("default_arm")
     hull = _hull(top.table("hull"), trim)

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from uvms.params import ASSETS, ParamError, _frozen, _Table
+from uvms.params import ASSETS, _frozen, read_table
 
 DEFAULT_SCENE = ASSETS / "scenes" / "wall_and_seafloor.toml"
 SCENE_SCHEMA = "uvms-scene/1"
@@ -86,15 +85,7 @@ def load_scene(path: str | Path = DEFAULT_SCENE) -> Scene:
     Raises:
         ParamError: one line naming the file, the field and what is allowed.
     """
-    path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ParamError(f"{path}: no such scene file") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ParamError(f"{path.name}: not valid TOML: {e}") from None
-    top = _Table(raw, path, "")
-    top.string("schema", (SCENE_SCHEMA,))
+    top = read_table(Path(path), "scene", SCENE_SCHEMA)
     name = top.string("name")
     w = top.table("water")
     water = Water(density=w.scalar("density", "kg/m^3", min_value=0.0, strict_min=True),
