@@ -75,7 +75,6 @@ class UVMSModel:
         Fw, Rw = ca.SX.sym("Fw", 6), ca.SX.sym("Rw", 3, 3)
         vc, ac = ca.SX.sym("vc", 3), ca.SX.sym("ac", 3)
         dt = ca.SX.sym("dt")
-        self._sym = (h, u, Fw, Rw, vc, ac)
         M, terms, kin = self._kane(h, u, Fw, Rw, vc, ac)
         rhs = sum(terms.values(), ca.SX.zeros(self.n_speeds))
         nu_dot = ca.solve(M, rhs)
@@ -127,7 +126,7 @@ class UVMSModel:
         for _name, C, omk, k in bodies:
             # the body's superellipsoid: centre, rotation (world), centre velocity (world), omega (its frame)
             centre_B = ca.DM.zeros(3) if k is None else fr.point(k, [p.arm.links[k].length / 2, 0.0, 0.0])
-            vel_c, _, _ = point_velocity(centre_B)
+            vel_c, Vc, accc0 = point_velocity(centre_B)
             Rse = C if k is None else C @ P
             se_c.append(h[0:3] + R @ centre_B)
             se_R.append(R @ Rse)
@@ -148,22 +147,17 @@ class UVMSModel:
             _, V, acc0 = point_velocity(com)
             M += mass * V.T @ V + W.T @ inertia @ W
             terms["coriolis"] -= mass * V.T @ acc0 + W.T @ (inertia @ alpha0 + ca.cross(omk, inertia @ omk))
+            _, Vb, _ = point_velocity(cob)
             if o.gravity:
                 terms["gravity"] += V.T @ (mass * g_B)
                 if o.buoyancy:
-                    _, Vb, _ = point_velocity(cob)
                     terms["buoyancy"] -= Vb.T @ (w.density * vol * g_B)
-            _, Vb, _ = point_velocity(cob)
             terms["froude_krylov"] += Vb.T @ (w.density * vol * ac_B)
-            # added mass about the body's hydrodynamic centre, in its own frame
+            # added mass about the body's hydrodynamic centre (its superellipsoid's), in its own frame
             if o.added_mass:
-                if k is None:
-                    centre, A = ca.DM.zeros(3), p.hull.added_mass
-                else:
-                    centre, A = pos([lk.length / 2, 0.0, 0.0]), _link_added_mass(lk, w.density)
-                vel, Vc, accc0 = point_velocity(centre)
+                A = p.hull.added_mass if k is None else _link_added_mass(lk, w.density)
                 Al, Aa = ca.DM(A[:3]), ca.DM(A[3:])
-                ur, wr = C.T @ (vel - vc_B), C.T @ omk
+                ur, wr = C.T @ (vel_c - vc_B), C.T @ omk
                 M += Vc.T @ C @ ca.diag(Al) @ C.T @ Vc + W.T @ C @ ca.diag(Aa) @ C.T @ W
                 udot0 = C.T @ (accc0 - ac_B) - ca.cross(wr, ur)
                 F = -Al * udot0 + ca.cross(Al * ur, wr)
