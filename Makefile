@@ -24,6 +24,7 @@ test: $(VENV)/.installed
 
 bench: $(VENV)/.installed
 	$(PY) bench/plant_speed.py
+	$(PY) bench/model_eval.py
 
 assets: $(VENV)/.installed
 	$(PY) -m uvms_mj.export
