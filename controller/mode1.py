@@ -1,0 +1,193 @@
+"""Mode I of the switching NMPC (paper Sec. IV-A): track the task, keep every body off every plane.
+
+Transcription (paper eq. OCP): multiple shooting over N intervals of dt with variables ordered
+[h_0, u_0, a_0, h_1, u_1, a_1, ..., h_N] (stage-wise, as structure-exploiting solvers want). The
+dynamics constraints (eq. DynConstraints) are written by the implicit midpoint rule in inverse-
+dynamics form: with h_m = (h_k + h_k+1)/2, eta_k+1 = eta_k + dt eta_dot(h_m), nu_k+1 = nu_k + dt a_k
+and M(q_m) a_k = Q(h_m, u_k). The accelerations a_k are decision variables, so the NLP never
+contains M^-1: its derivatives are ~10x cheaper than those of an explicit RK4 step of the same
+model (bench/ocp_formulations.md). The rule is second order and A-stable; predictions are
+recomputed with the model's RK4 after each solve (paper: Final Algorithm).
+
+Objective (eq. Obj1): sum_i e_i^T W_s e_i + u_i^T W_u u_i, e_i = h_i - h_ref. Constraints: input
+bounds, joint limits, and for every body j and plane (n, D): d_j(h_i) >= margin (eq.
+DistConstraints), plus the end-effector tip n.x_ee + D >= tip radius + margin.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+
+import casadi as ca
+import numpy as np
+
+from controller.kinematics import euler_rates, euler_zyx
+from controller.model import UVMSModel
+from uvms.scene import Plane
+
+
+class SolverStatus(Enum):
+    """Outcome of one OCP solve."""
+
+    SUCCESS = "success"
+    MAX_ITER = "max_iter"
+    INFEASIBLE = "infeasible"
+    FAILED = "failed"
+
+
+def _default_state_weights(n_joints: int) -> tuple[float, ...]:
+    """Position 10, attitude 5 (roll, pitch) and 5 (yaw), joints 1; velocities 1, joint rates 0.1."""
+    return (10.0,) * 3 + (5.0,) * 3 + (1.0,) * n_joints + (1.0,) * 6 + (0.1,) * n_joints
+
+
+@dataclass(frozen=True)
+class ModeISettings:
+    """Mode I OCP settings (units: s, m, and the weights' units make the cost dimensionless)."""
+
+    horizon: int = 20
+    dt: float = 0.1  # s
+    state_weights: tuple[float, ...] | None = None  # None: _default_state_weights
+    input_weight: float = 1e-3  # 1/N^2 and 1/(N m)^2
+    distance_margin: float = 0.02  # m
+    max_iter: int = 100
+    tol: float = 1e-6
+    ipopt_options: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.horizon < 1 or self.dt <= 0:
+            raise ValueError(f"horizon {self.horizon}, dt {self.dt} s: allowed: horizon >= 1, dt > 0")
+
+
+@dataclass(frozen=True)
+class OCPSolution:
+    """A solved (or failed) OCP: trajectories over the horizon and solver figures."""
+
+    status: SolverStatus
+    h: np.ndarray  # (N+1, n_states)
+    u: np.ndarray  # (N, n_inputs)
+    a: np.ndarray  # (N, n_speeds) accelerations
+    solve_time: float  # s, wall clock
+    iterations: int
+    cost: float
+    w: np.ndarray  # raw primal vector
+    lam_g: np.ndarray  # constraint multipliers (warm start)
+    lam_x: np.ndarray  # bound multipliers (warm start)
+
+
+class ModeIOCP:
+    """The Mode I NLP, built once for a model, a set of planes and settings."""
+
+    def __init__(self, model: UVMSModel, planes: Sequence[Plane], settings: ModeISettings = ModeISettings()):
+        self.model, self.planes, self.settings = model, tuple(planes), settings
+        p = model.params
+        ns, nu, nv, n = model.n_states, model.n_inputs, model.n_speeds, model.n_joints
+        self.ns, self.nu, self.nv, N, dt = ns, nu, nv, settings.horizon, settings.dt
+        self._nz = ns + nu + nv
+        weights = settings.state_weights or _default_state_weights(n)
+        if len(weights) != ns:
+            raise ValueError(f"state_weights has {len(weights)} entries; allowed: {ns}")
+        # stage functions (SX; inlined into one SX NLP)
+        h, h1, u, a = ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv)
+        vc = ca.SX.sym("vc", 3)
+        hm = (h + h1) / 2
+        Q = sum(model.generalized_forces(hm, u, ca.DM.zeros(6), ca.DM.eye(3), vc, ca.DM.zeros(3)))
+        R = euler_zyx(hm[3], hm[4], hm[5])
+        eta_dot = ca.vertcat(R @ hm[6 + n:9 + n], euler_rates(hm[3:6], hm[9 + n:12 + n]), hm[12 + n:])
+        dyn = ca.vertcat(h1[:nv] - h[:nv] - dt * eta_dot, h1[nv:] - h[nv:] - dt * a,
+                         model.mass_matrix(hm) @ a - Q)
+        self._dynamics = ca.Function("dyn", [h, u, a, h1, vc], [dyn])
+        clear = []
+        x_ee = model.ee_pose(h)[0]
+        for pl in self.planes:
+            clear.append(model.distances(h, ca.DM(pl.normal), pl.offset))
+            if n:
+                clear.append(ca.dot(ca.DM(pl.normal), x_ee) + pl.offset - p.arm.tip_radius)
+        self._clearance = ca.Function("clear", [h], [ca.vertcat(*clear) if clear else ca.SX.zeros(0)])
+        self.n_clear = self._clearance.size1_out(0)
+        # the NLP
+        nw = N * self._nz + ns
+        w, P = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + 3)
+        x0, xr, cur = P[:ns], P[ns:2 * ns], P[2 * ns:]
+        X = [w[k * self._nz:k * self._nz + ns] for k in range(N + 1)]
+        U = [w[k * self._nz + ns:k * self._nz + ns + nu] for k in range(N)]
+        A = [w[k * self._nz + ns + nu:(k + 1) * self._nz] for k in range(N)]
+        Ws = ca.DM(weights)
+        J, g = 0, [X[0] - x0]
+        for k in range(N):
+            e = X[k + 1] - xr
+            J += ca.dot(Ws * e, e) + settings.input_weight * ca.dot(U[k], U[k])
+            g += [self._dynamics(X[k], U[k], A[k], X[k + 1], cur), self._clearance(X[k + 1])]
+        g = ca.vertcat(*g)
+        ipopt = {"print_level": 0, "max_iter": settings.max_iter, "tol": settings.tol,
+                 "warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
+                 "mu_init": 1e-3, "sb": "yes", **settings.ipopt_options}
+        self.solver = ca.nlpsol("mode1", "ipopt", {"x": w, "p": P, "f": J, "g": g},
+                                {"print_time": False, "ipopt": ipopt})
+        # bounds
+        lo, hi = p.input_bounds()
+        self.lbw, self.ubw = np.full(nw, -np.inf), np.full(nw, np.inf)
+        q_lo = np.array([lk.joint_range[0] for lk in p.arm.links])
+        q_hi = np.array([lk.joint_range[1] for lk in p.arm.links])
+        for k in range(N + 1):
+            i = k * self._nz
+            if k > 0:
+                self.lbw[i + 6:i + 6 + n], self.ubw[i + 6:i + 6 + n] = q_lo, q_hi
+            if k < N:
+                self.lbw[i + ns:i + ns + nu], self.ubw[i + ns:i + ns + nu] = lo, hi
+        ng = g.shape[0]
+        self.lbg, self.ubg = np.zeros(ng), np.zeros(ng)
+        idx = ns
+        for _ in range(N):
+            idx += ns + nv
+            self.lbg[idx:idx + self.n_clear] = settings.distance_margin
+            self.ubg[idx:idx + self.n_clear] = np.inf
+            idx += self.n_clear
+
+    # ------------------------------------------------------------------------------------------
+    def initial_guess(self, h0: np.ndarray, previous: OCPSolution | None = None) -> tuple[np.ndarray, ...]:
+        """Primal and dual start: the previous solution shifted by one stage, or h0 held."""
+        N, ns = self.settings.horizon, self.ns
+        if previous is None:
+            w = np.concatenate([np.concatenate([h0, np.zeros(self.nu + self.nv)])] * N + [h0])
+            return w, None, None
+        w = self._shift_primal(previous.w)
+        w[:ns] = h0
+        return w, self._shift(previous.lam_g), self._shift_primal(previous.lam_x)
+
+    def _shift_primal(self, v: np.ndarray) -> np.ndarray:
+        """Drop stage 0; repeat the last stage's (u, a) and the final state."""
+        N, nz, ns = self.settings.horizon, self._nz, self.ns
+        return np.concatenate([v[nz:], v[(N - 1) * nz + ns:N * nz], v[N * nz:]])
+
+    def _shift(self, lam_g: np.ndarray) -> np.ndarray:
+        ns, block = self.ns, self.ns + self.nv + self.n_clear
+        stages = lam_g[ns:].reshape(self.settings.horizon, block)
+        return np.concatenate([lam_g[:ns], stages[1:].ravel(), stages[-1]])
+
+    def solve(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
+              previous: OCPSolution | None = None) -> OCPSolution:
+        """Solve from state h0 towards h_ref; warm-started from `previous` when given."""
+        w0, lam_g, lam_x = self.initial_guess(np.asarray(h0, float), previous)
+        args = {"x0": w0, "p": np.concatenate([h0, h_ref, np.zeros(3) if current is None else current]),
+                "lbx": self.lbw, "ubx": self.ubw, "lbg": self.lbg, "ubg": self.ubg}
+        if lam_g is not None:
+            args.update(lam_g0=lam_g, lam_x0=lam_x)
+        t0 = time.perf_counter()
+        r = self.solver(**args)
+        elapsed = time.perf_counter() - t0
+        st = self.solver.stats()
+        status = {"Solve_Succeeded": SolverStatus.SUCCESS, "Solved_To_Acceptable_Level": SolverStatus.SUCCESS,
+                  "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER,
+                  "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE}.get(st["return_status"], SolverStatus.FAILED)
+        w = np.asarray(r["x"]).ravel()
+        N, nz, ns, nu = self.settings.horizon, self._nz, self.ns, self.nu
+        return OCPSolution(
+            status=status,
+            h=np.array([w[k * nz:k * nz + ns] for k in range(N + 1)]),
+            u=np.array([w[k * nz + ns:k * nz + ns + nu] for k in range(N)]),
+            a=np.array([w[k * nz + ns + nu:(k + 1) * nz] for k in range(N)]),
+            solve_time=elapsed, iterations=int(st["iter_count"]), cost=float(r["f"]), w=w,
+            lam_g=np.asarray(r["lam_g"]).ravel(), lam_x=np.asarray(r["lam_x"]).ravel())
