@@ -155,7 +155,7 @@ class UVMSModel:
             terms["froude_krylov"] += Vb.T @ (w.density * vol * ac_B)
             # added mass about the body's hydrodynamic centre (its superellipsoid's), in its own frame
             if o.added_mass:
-                A = p.hull.added_mass if k is None else _link_added_mass(lk, w.density)
+                A = p.hull.added_mass if k is None else lk.added_mass(w.density)
                 Al, Aa = ca.DM(A[:3]), ca.DM(A[3:])
                 ur, wr = C.T @ (vel_c - vc_B), C.T @ omk
                 M += Vc.T @ C @ ca.diag(Al) @ C.T @ Vc + W.T @ C @ ca.diag(Aa) @ C.T @ W
@@ -262,12 +262,6 @@ class UVMSModel:
     def step(self, h, u, dt: float, Fw=None, Rw=None, vc=None, ac=None) -> np.ndarray:
         """One RK4 step from numpy arrays."""
         return np.asarray(self.rk4(h, u, *self.defaults(Fw, Rw, vc, ac), dt)).ravel()
-
-
-def _link_added_mass(lk, rho: float) -> np.ndarray:
-    """Cross-flow added mass of a link about its centre, link frame (axis x): kg x3, kg m^2 x3."""
-    mt = lk.added_mass_coefficient * rho * np.pi * lk.radius**2 * lk.length
-    return np.array([0.0, mt, mt, 0.0, mt * lk.length**2 / 12, mt * lk.length**2 / 12])
 
 
 def _validate(p: UVMSParams) -> None:

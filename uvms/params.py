@@ -102,6 +102,13 @@ class Link:
     drag_coefficient: float  # -, cross-flow
     mujoco_fluidcoef: np.ndarray  # (5,) plant only
 
+    def added_mass(self, rho: float) -> np.ndarray:
+        """Cross-flow added mass about the link's centre, link axes (the link along x) [kg x3,
+        kg m^2 x3]: m_t = C_a rho pi r^2 l across the axis, m_t l^2 / 12 about the transverse axes,
+        none along or about the axis."""
+        mt = self.added_mass_coefficient * rho * np.pi * self.radius**2 * self.length
+        return np.array([0.0, mt, mt, 0.0, mt * self.length**2 / 12, mt * self.length**2 / 12])
+
 
 @dataclass(frozen=True)
 class Arm:
@@ -285,7 +292,7 @@ def _trim(t: _Table) -> TrimMass:
     return item
 
 
-def _parallel_axis(r: np.ndarray) -> np.ndarray:
+def parallel_axis(r: np.ndarray) -> np.ndarray:
     """|r|^2 I - r r^T: inertia of a unit point mass at r about the origin."""
     return float(r @ r) * np.eye(3) - np.outer(r, r)
 
@@ -301,8 +308,8 @@ def _hull(t: _Table, with_trim: bool) -> Hull:
     # Fold the trim point masses into one rigid body.
     m_tot = mass + sum(x.mass for x in trim)
     c_tot = (mass * com + sum(x.mass * x.position for x in trim)) / m_tot
-    inertia_tot = np.diag(inertia) + mass * _parallel_axis(com - c_tot) + sum(
-        (x.mass * _parallel_axis(x.position - c_tot) for x in trim), np.zeros((3, 3)))
+    inertia_tot = np.diag(inertia) + mass * parallel_axis(com - c_tot) + sum(
+        (x.mass * parallel_axis(x.position - c_tot) for x in trim), np.zeros((3, 3)))
     v_tot = volume + sum(x.volume for x in trim)
     b_tot = (volume * cob + sum(x.volume * x.position for x in trim)) / v_tot
     hull = Hull(

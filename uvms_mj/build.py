@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 from numpy.polynomial.legendre import leggauss
 
-from uvms.params import Link, UVMSParams
+from uvms.params import UVMSParams, parallel_axis
 from uvms.scene import Scene
 
 COB_MASS = 1e-3  # kg, mass of each centre-of-buoyancy body (taken from its parent)
@@ -99,18 +99,13 @@ def quat_z_to(direction: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
-def _skew_sq(r: np.ndarray) -> np.ndarray:
-    """|r|^2 I - r r^T: the parallel-axis term of a unit point mass at r."""
-    return float(r @ r) * np.eye(3) - np.outer(r, r)
-
-
 def _parent_without_cob(mass: float, com: np.ndarray, inertia: np.ndarray, cob: np.ndarray,
                         ) -> tuple[float, np.ndarray, np.ndarray]:
     """Mass, CoM and full inertia (about its CoM) that, with a COB_MASS point at `cob`, give the
     composite (mass, com, inertia about com: a (3,) principal diagonal or a (3, 3) matrix)."""
     m = mass - COB_MASS
     c = (mass * com - COB_MASS * cob) / m
-    full = _as_matrix(inertia) - COB_MASS * _skew_sq(cob - com) - m * _skew_sq(c - com)
+    full = _as_matrix(inertia) - COB_MASS * parallel_axis(cob - com) - m * parallel_axis(c - com)
     return m, c, full
 
 
@@ -165,12 +160,6 @@ def hull_armature(params: UVMSParams) -> np.ndarray:
 def hull_added_mass_remainder(params: UVMSParams) -> np.ndarray:
     """Body-frame diagonal translational added mass [kg] not carried by the armature."""
     return params.hull.added_mass[:3] - hull_armature(params)[:3]
-
-
-def link_added_mass(link: Link, rho: float) -> np.ndarray:
-    """Cross-flow added mass of a link (link frame, about its centre): kg x3, kg m^2 x3."""
-    mt = link.added_mass_coefficient * rho * np.pi * link.radius**2 * link.length
-    return np.array([0.0, mt, mt, 0.0, mt * link.length**2 / 12, mt * link.length**2 / 12])
 
 
 def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOptions()) -> mujoco.MjSpec:
@@ -289,7 +278,7 @@ def _link_armature(spec: mujoco.MjSpec, params: UVMSParams, rho: float) -> list[
             centre = data.xpos[b] + R @ np.array([lk.length / 2, 0, 0])
             v = R.T @ np.cross(axis, centre - anchor)
             w = R.T @ axis
-            ma = link_added_mass(lk, rho)
+            ma = lk.added_mass(rho)
             total += v @ (ma[:3] * v) + w @ (ma[3:] * w)
         out.append(float(total))
     return out
