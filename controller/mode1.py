@@ -26,6 +26,7 @@ import numpy as np
 
 from controller.kinematics import euler_rates, euler_zyx
 from controller.model import UVMSModel
+from controller.stage_nlp import StageProblem, build_solver
 from uvms.scene import Plane
 
 
@@ -54,6 +55,7 @@ class ModeISettings:
     distance_margin: float = 0.02  # m
     max_iter: int = 100
     tol: float = 1e-6
+    compiled: bool = True  # per-stage derivatives compiled to C (controller.stage_nlp); False: one SX NLP
     ipopt_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -107,25 +109,29 @@ class ModeIOCP:
                 clear.append(ca.dot(ca.DM(pl.normal), x_ee) + pl.offset - p.arm.tip_radius)
         self._clearance = ca.Function("clear", [h], [ca.vertcat(*clear) if clear else ca.SX.zeros(0)])
         self.n_clear = self._clearance.size1_out(0)
-        # the NLP
-        nw = N * self._nz + ns
-        w, P = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + 3)
-        x0, xr, cur = P[:ns], P[ns:2 * ns], P[2 * ns:]
-        X = [w[k * self._nz:k * self._nz + ns] for k in range(N + 1)]
-        U = [w[k * self._nz + ns:k * self._nz + ns + nu] for k in range(N)]
-        A = [w[k * self._nz + ns + nu:(k + 1) * self._nz] for k in range(N)]
-        Ws = ca.DM(weights)
-        J, g = 0, [X[0] - x0]
-        for k in range(N):
-            e = X[k + 1] - xr
-            J += ca.dot(Ws * e, e) + settings.input_weight * ca.dot(U[k], U[k])
-            g += [self._dynamics(X[k], U[k], A[k], X[k + 1], cur), self._clearance(X[k + 1])]
-        g = ca.vertcat(*g)
+        # the NLP: stage k sees s_k = (h_k, u_k, a_k, h_k+1) and p = (h0, h_ref, current)
+        st, P = ca.SX.sym("s", 2 * ns + nu + nv), ca.SX.sym("P", 2 * ns + 3)
+        hk, uk, ak, hk1 = st[:ns], st[ns:ns + nu], st[ns + nu:ns + nu + nv], st[ns + nu + nv:]
+        e = hk1 - P[ns:2 * ns]
+        stage_cost = ca.Function("cost", [st, P],
+                                 [ca.dot(ca.DM(weights) * e, e) + settings.input_weight * ca.dot(uk, uk)])
+        stage_constraints = ca.Function("cons", [st, P], [ca.vertcat(self._dynamics(hk, uk, ak, hk1, P[2 * ns:]),
+                                                                      self._clearance(hk1))])
         ipopt = {"print_level": 0, "max_iter": settings.max_iter, "tol": settings.tol,
                  "warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
                  "mu_init": 1e-3, "sb": "yes", **settings.ipopt_options}
-        self.solver = ca.nlpsol("mode1", "ipopt", {"x": w, "p": P, "f": J, "g": g},
-                                {"print_time": False, "ipopt": ipopt})
+        nw = N * self._nz + ns
+        if settings.compiled:
+            problem = StageProblem(nx=ns, nv=nu + nv, horizon=N, np=2 * ns + 3, cost=stage_cost,
+                                   constraints=stage_constraints)
+            self.solver = build_solver(problem, f"mode1_{p.name}_{p.arm.name}_N{N}", ipopt)
+        else:
+            w, Pn = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + 3)
+            stages = [w[k * self._nz:k * self._nz + 2 * ns + nu + nv] for k in range(N)]
+            J = sum(stage_cost(sk, Pn) for sk in stages)
+            g = ca.vertcat(w[:ns] - Pn[:ns], *[stage_constraints(sk, Pn) for sk in stages])
+            self.solver = ca.nlpsol("mode1", "ipopt", {"x": w, "p": Pn, "f": J, "g": g},
+                                    {"print_time": False, "ipopt": ipopt})
         # bounds
         lo, hi = p.input_bounds()
         self.lbw, self.ubw = np.full(nw, -np.inf), np.full(nw, np.inf)
@@ -137,7 +143,7 @@ class ModeIOCP:
                 self.lbw[i + 6:i + 6 + n], self.ubw[i + 6:i + 6 + n] = q_lo, q_hi
             if k < N:
                 self.lbw[i + ns:i + ns + nu], self.ubw[i + ns:i + ns + nu] = lo, hi
-        ng = g.shape[0]
+        ng = ns + N * (ns + nv + self.n_clear)
         self.lbg, self.ubg = np.zeros(ng), np.zeros(ng)
         idx = ns
         for _ in range(N):
