@@ -71,6 +71,7 @@ class OCPSolution:
     h: np.ndarray  # (N+1, n_states)
     u: np.ndarray  # (N, n_inputs)
     a: np.ndarray  # (N, n_speeds) accelerations
+    slack: np.ndarray  # (N, n_clear) clearance slacks [m] (empty unless min_violation)
     solve_time: float  # s, wall clock
     iterations: int
     cost: float
@@ -82,12 +83,15 @@ class OCPSolution:
 class ModeIOCP:
     """The Mode I NLP, built once for a model, a set of planes and settings."""
 
-    def __init__(self, model: UVMSModel, planes: Sequence[Plane], settings: ModeISettings = ModeISettings()):
-        self.model, self.planes, self.settings = model, tuple(planes), settings
+    def __init__(self, model: UVMSModel, planes: Sequence[Plane], settings: ModeISettings = ModeISettings(),
+                 min_violation: bool = False):
+        """`min_violation=True` builds the feasibility problem instead: every clearance constraint
+        gets an L1 slack sigma >= 0 and the cost is sum(sigma) [m] (plus 1e-6 of the tracking cost
+        as regularization); its optimum is 0 exactly when Mode I's feasible set is non-empty."""
+        self.model, self.planes, self.settings, self.min_violation = model, tuple(planes), settings, min_violation
         p = model.params
         ns, nu, nv, n = model.n_states, model.n_inputs, model.n_speeds, model.n_joints
         self.ns, self.nu, self.nv, N, dt = ns, nu, nv, settings.horizon, settings.dt
-        self._nz = ns + nu + nv
         weights = settings.state_weights or _default_state_weights(n)
         if len(weights) != ns:
             raise ValueError(f"state_weights has {len(weights)} entries; allowed: {ns}")
@@ -109,25 +113,29 @@ class ModeIOCP:
                 clear.append(ca.dot(ca.DM(pl.normal), x_ee) + pl.offset - p.arm.tip_radius)
         self._clearance = ca.Function("clear", [h], [ca.vertcat(*clear) if clear else ca.SX.zeros(0)])
         self.n_clear = self._clearance.size1_out(0)
-        # the NLP: stage k sees s_k = (h_k, u_k, a_k, h_k+1) and p = (h0, h_ref, current)
-        st, P = ca.SX.sym("s", 2 * ns + nu + nv), ca.SX.sym("P", 2 * ns + 3)
-        hk, uk, ak, hk1 = st[:ns], st[ns:ns + nu], st[ns + nu:ns + nu + nv], st[ns + nu + nv:]
+        self.n_slack = self.n_clear if min_violation else 0
+        self._nz = ns + nu + nv + self.n_slack
+        # the NLP: stage k sees s_k = (h_k, u_k, a_k, sigma_k, h_k+1) and p = (h0, h_ref, current)
+        st, P = ca.SX.sym("s", self._nz + ns), ca.SX.sym("P", 2 * ns + 3)
+        hk, uk, ak = st[:ns], st[ns:ns + nu], st[ns + nu:ns + nu + nv]
+        sk, hk1 = st[ns + nu + nv:self._nz], st[self._nz:]
         e = hk1 - P[ns:2 * ns]
-        stage_cost = ca.Function("cost", [st, P],
-                                 [ca.dot(ca.DM(weights) * e, e) + settings.input_weight * ca.dot(uk, uk)])
+        tracking = ca.dot(ca.DM(weights) * e, e) + settings.input_weight * ca.dot(uk, uk)
+        stage_cost = ca.Function("cost", [st, P], [ca.sum1(sk) + 1e-6 * tracking if min_violation else tracking])
         stage_constraints = ca.Function("cons", [st, P], [ca.vertcat(self._dynamics(hk, uk, ak, hk1, P[2 * ns:]),
-                                                                      self._clearance(hk1))])
+                                                                      self._clearance(hk1) + sk)])
         ipopt = {"print_level": 0, "max_iter": settings.max_iter, "tol": settings.tol,
                  "warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
                  "mu_init": 1e-3, "sb": "yes", **settings.ipopt_options}
         nw = N * self._nz + ns
         if settings.compiled:
-            problem = StageProblem(nx=ns, nv=nu + nv, horizon=N, np=2 * ns + 3, cost=stage_cost,
+            problem = StageProblem(nx=ns, nv=self._nz - ns, horizon=N, np=2 * ns + 3, cost=stage_cost,
                                    constraints=stage_constraints)
-            self.solver = build_solver(problem, f"mode1_{p.name}_{p.arm.name}_N{N}", ipopt)
+            kind = "minviol" if min_violation else "mode1"
+            self.solver = build_solver(problem, f"{kind}_{p.name}_{p.arm.name}_N{N}", ipopt)
         else:
             w, Pn = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + 3)
-            stages = [w[k * self._nz:k * self._nz + 2 * ns + nu + nv] for k in range(N)]
+            stages = [w[k * self._nz:(k + 1) * self._nz + ns] for k in range(N)]
             J = sum(stage_cost(sk, Pn) for sk in stages)
             g = ca.vertcat(w[:ns] - Pn[:ns], *[stage_constraints(sk, Pn) for sk in stages])
             self.solver = ca.nlpsol("mode1", "ipopt", {"x": w, "p": Pn, "f": J, "g": g},
@@ -143,6 +151,7 @@ class ModeIOCP:
                 self.lbw[i + 6:i + 6 + n], self.ubw[i + 6:i + 6 + n] = q_lo, q_hi
             if k < N:
                 self.lbw[i + ns:i + ns + nu], self.ubw[i + ns:i + ns + nu] = lo, hi
+                self.lbw[i + ns + nu + nv:i + self._nz] = 0.0  # slacks
         ng = ns + N * (ns + nv + self.n_clear)
         self.lbg, self.ubg = np.zeros(ng), np.zeros(ng)
         idx = ns
@@ -153,11 +162,23 @@ class ModeIOCP:
             idx += self.n_clear
 
     # ------------------------------------------------------------------------------------------
+    def guess_from_rollout(self, h: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """A primal start from a state trajectory h (N+1, ns) under inputs u (N, nu): accelerations
+        by the midpoint rule's (nu_k+1 - nu_k) / dt, slacks just large enough."""
+        ns, nv, dt = self.ns, self.nv, self.settings.dt
+        blocks = []
+        for k in range(self.settings.horizon):
+            a = (h[k + 1, ns - nv:] - h[k, ns - nv:]) / dt
+            sig = np.maximum(0.0, self.settings.distance_margin - np.asarray(self._clearance(h[k + 1])).ravel()) \
+                if self.n_slack else np.zeros(0)
+            blocks.append(np.concatenate([h[k], u[k], a, sig]))
+        return np.concatenate([*blocks, h[-1]])
+
     def initial_guess(self, h0: np.ndarray, previous: OCPSolution | None = None) -> tuple[np.ndarray, ...]:
         """Primal and dual start: the previous solution shifted by one stage, or h0 held."""
         N, ns = self.settings.horizon, self.ns
         if previous is None:
-            w = np.concatenate([np.concatenate([h0, np.zeros(self.nu + self.nv)])] * N + [h0])
+            w = np.concatenate([np.concatenate([h0, np.zeros(self._nz - ns)])] * N + [h0])
             return w, None, None
         w = self._shift_primal(previous.w)
         w[:ns] = h0
@@ -174,9 +195,12 @@ class ModeIOCP:
         return np.concatenate([lam_g[:ns], stages[1:].ravel(), stages[-1]])
 
     def solve(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
-              previous: OCPSolution | None = None) -> OCPSolution:
-        """Solve from state h0 towards h_ref; warm-started from `previous` when given."""
+              previous: OCPSolution | None = None, guess: np.ndarray | None = None) -> OCPSolution:
+        """Solve from state h0 towards h_ref; warm-started from `previous` when given, else from the
+        primal `guess` (e.g. `guess_from_rollout`), else from h0 held."""
         w0, lam_g, lam_x = self.initial_guess(np.asarray(h0, float), previous)
+        if previous is None and guess is not None:
+            w0 = guess
         args = {"x0": w0, "p": np.concatenate([h0, h_ref, np.zeros(3) if current is None else current]),
                 "lbx": self.lbw, "ubx": self.ubw, "lbg": self.lbg, "ubg": self.ubg}
         if lam_g is not None:
@@ -194,6 +218,7 @@ class ModeIOCP:
             status=status,
             h=np.array([w[k * nz:k * nz + ns] for k in range(N + 1)]),
             u=np.array([w[k * nz + ns:k * nz + ns + nu] for k in range(N)]),
-            a=np.array([w[k * nz + ns + nu:(k + 1) * nz] for k in range(N)]),
+            a=np.array([w[k * nz + ns + nu:k * nz + ns + nu + self.nv] for k in range(N)]),
+            slack=np.array([w[k * nz + ns + nu + self.nv:(k + 1) * nz] for k in range(N)]),
             solve_time=elapsed, iterations=int(st["iter_count"]), cost=float(r["f"]), w=w,
             lam_g=np.asarray(r["lam_g"]).ravel(), lam_x=np.asarray(r["lam_x"]).ravel())

@@ -116,7 +116,8 @@ class Arm:
 
     name: str
     links: tuple[Link, ...]
-    home: np.ndarray
+    home: np.ndarray  # rad
+    stowed: np.ndarray  # rad, folded for transit (the paper's "arm stowed")
     end_effector: np.ndarray  # (3,) m, in the last link's frame
     tip_radius: float  # m
 
@@ -166,7 +167,7 @@ class UVMSParams:
 
     def without_arm(self) -> UVMSParams:
         """The hull alone (zero links): for hull-only experiments."""
-        arm = Arm(name="none", links=(), home=_frozen([]), end_effector=_frozen([0, 0, 0]),
+        arm = Arm(name="none", links=(), home=_frozen([]), stowed=_frozen([]), end_effector=_frozen([0, 0, 0]),
                   tip_radius=self.arm.tip_radius)
         return replace(self, arm=arm)
 
@@ -370,13 +371,15 @@ def _arm(name: str, t: _Table, links: dict[str, Link]) -> Arm:
         if n not in links:
             raise t.fail("links", f"unknown link {n!r}; allowed: {', '.join(links)}")
     n = len(names)
-    home = t.quantity("home", "rad", (n,))
     chain = tuple(links[k] for k in names)
-    for i, (lk, q) in enumerate(zip(chain, home, strict=True)):
-        if not lk.joint_range[0] <= q <= lk.joint_range[1]:
-            raise t.fail("home", f"joint {i} ({lk.name}) at {q} rad is outside its range "
-                                 f"{lk.joint_range.tolist()}; allowed: within the joint range")
-    arm = Arm(name=name, links=chain, home=home,
+    postures = {key: t.quantity(key, "rad", (n,)) for key in ("home", "stowed")}
+    for key, q in postures.items():
+        for i, (lk, qi) in enumerate(zip(chain, q, strict=True)):
+            if not lk.joint_range[0] <= qi <= lk.joint_range[1]:
+                raise t.fail(key, f"joint {i} ({lk.name}) at {qi} rad is outside its range "
+                                  f"{lk.joint_range.tolist()}; allowed: within the joint range")
+    home = postures["home"]
+    arm = Arm(name=name, links=chain, home=home, stowed=postures["stowed"],
               end_effector=t.quantity("end_effector", "m", (3,)),
               tip_radius=t.scalar("tip_radius", "m", min_value=0.0, strict_min=True))
     t.finish()
