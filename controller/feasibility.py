@@ -4,12 +4,15 @@ IPOPT fails on tight feasible problems and can hit its iteration cap on infeasib
 saying so, so a failed Mode I solve proves nothing. The test here has two stages:
 
 1. Screen: roll the model out over the horizon under maximum braking (thrust against the hull's
-   velocity, scaled to the thrusters' limits; joints held at their posture by a servo). If every clearance
+   velocity, scaled to the thrusters' limits after an attitude hold; joints held at their
+   posture). If every clearance
    at every node stays above the margin, that rollout is a point of F: feasible, certified.
 2. Otherwise solve the minimum-violation problem (Mode I with an L1 slack on every clearance
    constraint, cost sum(slack)), started from that rollout (slacks just large enough, so the start
    is feasible). Its optimum is 0 exactly when F is non-empty, so F is declared empty when the
-   minimum violation exceeds `tolerance` [m] (summed over nodes and bodies). If IPOPT fails on this
+   minimum violation exceeds `tolerance` [m] (summed over nodes and bodies). The problem is not
+   convex: a positive local minimum is strong evidence, not a proof, that F is empty (two starts
+   gave 2.5 and 12.8 cm on the same unavoidable case). If IPOPT fails on this
    always-feasible problem, F is declared empty (the safe side: the strategy prepares for contact)
    and the certificate says so by an infinite violation.
 """
@@ -63,24 +66,33 @@ class FeasibilityTest:
             "warm_start_init_point": "no", "mu_init": 0.1, **settings.ipopt_options})
         self.problem = ModeIOCP(model, planes, cold, min_violation=True)
         p = model.params
-        self._pinv = np.linalg.pinv(p.allocation_matrix())
+        self._B = p.allocation_matrix()
+        self._pinv = np.linalg.pinv(self._B)
         self._thrust_limit = np.array([t.force_range for t in p.thrusters])
 
     def braking_inputs(self, h: np.ndarray, posture: np.ndarray) -> np.ndarray:
-        """Thrust against the hull's body velocity at the thrusters' limit; joint torques that
-        cancel the joints' bias forces (gravity, buoyancy, Coriolis, drag) plus a gentle PD to
-        `posture` [rad] (1 N m/rad, 0.1 N m s/rad: stable when held over a 0.1 s interval),
-        within the torque limits."""
+        """Maximum braking with attitude hold. The thrusters first serve an attitude PD (level
+        roll and pitch, heading and angular rates held; 20 N m/rad, 5 N m s/rad), and the largest
+        force against the hull's body velocity that the remaining thruster range allows is added.
+        Joint torques by computed torque: those that make the joints' acceleration zero under this
+        thrust (M [a_hull; 0] + b = [B u; tau]), plus a gentle PD to `posture` [rad] (1 N m/rad,
+        0.1 N m s/rad: stable when held over a 0.1 s interval), within the torque limits."""
         n, nt = self.model.n_joints, self.model.params.n_thrusters
         v, w = h[6 + n:9 + n], h[9 + n:12 + n]
-        thrust = self._pinv @ -np.concatenate([v, 0.2 * w])
-        moving = np.abs(thrust) > 1e-12
-        if np.any(moving):
-            limit = np.where(thrust > 0, self._thrust_limit[:, 1], self._thrust_limit[:, 0])
-            thrust = thrust * np.min(limit[moving] / thrust[moving])
+        hold = np.concatenate([np.zeros(3), -20.0 * np.array([h[3], h[4], 0.0]) - 5.0 * w])
+        lo_t, hi_t = self._thrust_limit[:, 0], self._thrust_limit[:, 1]
+        base = np.clip(self._pinv @ hold, lo_t, hi_t)
+        brake = self._pinv @ np.concatenate([-v, np.zeros(3)])
+        room = np.where(brake > 0, hi_t - base, lo_t - base)
+        moving = np.abs(brake) > 1e-12
+        scale = np.min(room[moving] / brake[moving]) if np.any(moving) else 0.0
+        thrust = base + max(scale, 0.0) * brake
         lo, hi = self.model.params.input_bounds()
-        bias = np.asarray(self.model.bias(h, np.zeros(3), np.zeros(3))).ravel()[6:]
-        tau = np.clip(bias + 1.0 * (posture - h[6:6 + n]) - 0.1 * h[12 + n:], lo[nt:], hi[nt:])
+        M = np.asarray(self.model.mass_matrix(h))
+        b = np.asarray(self.model.bias(h, np.zeros(3), np.zeros(3))).ravel()
+        a_hull = np.linalg.solve(M[:6, :6], self._B @ thrust - b[:6])
+        tau = M[6:, :6] @ a_hull + b[6:] + 1.0 * (posture - h[6:6 + n]) - 0.1 * h[12 + n:]
+        tau = np.clip(tau, lo[nt:], hi[nt:])
         return np.concatenate([thrust, tau])
 
     def braking_rollout(self, h0: np.ndarray, current: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -123,7 +123,8 @@ class ModeIOCP:
         tracking = ca.dot(ca.DM(weights) * e, e) + settings.input_weight * ca.dot(uk, uk)
         stage_cost = ca.Function("cost", [st, P], [ca.sum1(sk) + 1e-6 * tracking if min_violation else tracking])
         stage_constraints = ca.Function("cons", [st, P], [ca.vertcat(self._dynamics(hk, uk, ak, hk1, P[2 * ns:]),
-                                                                      self._clearance(hk1) + sk)])
+                                                                      self._clearance(hk1) + sk if min_violation
+                                                                      else self._clearance(hk1))])
         ipopt = {"print_level": 0, "max_iter": settings.max_iter, "tol": settings.tol,
                  "warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
                  "mu_init": 1e-3, "sb": "yes", **settings.ipopt_options}
