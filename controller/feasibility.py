@@ -5,7 +5,7 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
 
 1. Screen: roll the model out over the horizon under maximum braking (thrust against the hull's
    velocity, scaled to the thrusters' limits after an attitude hold; joints held at their
-   posture). If every clearance
+   posture: controller.rollouts.BrakingPolicy). If every clearance
    at every node stays above the margin, that rollout is a point of F: feasible, certified.
 2. Otherwise solve the minimum-violation problem (Mode I with an L1 slack on every clearance
    constraint, cost sum(slack)), started from that rollout (slacks just large enough, so the start
@@ -28,6 +28,7 @@ import numpy as np
 
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.model import UVMSModel
+from controller.rollouts import BrakingPolicy, rollout
 from uvms.scene import Plane
 
 
@@ -65,50 +66,15 @@ class FeasibilityTest:
         cold = replace(settings, max_iter=max(settings.max_iter, 300), ipopt_options={
             "warm_start_init_point": "no", "mu_init": 0.1, **settings.ipopt_options})
         self.problem = ModeIOCP(model, planes, cold, min_violation=True)
-        p = model.params
-        self._B = p.allocation_matrix()
-        self._pinv = np.linalg.pinv(self._B)
-        self._thrust_limit = np.array([t.force_range for t in p.thrusters])
-
-    def braking_inputs(self, h: np.ndarray, posture: np.ndarray) -> np.ndarray:
-        """Maximum braking with attitude hold. The thrusters first serve an attitude PD (level
-        roll and pitch, heading and angular rates held; 20 N m/rad, 5 N m s/rad), and the largest
-        force against the hull's body velocity that the remaining thruster range allows is added.
-        Joint torques by computed torque: those that make the joints' acceleration zero under this
-        thrust (M [a_hull; 0] + b = [B u; tau]), plus a gentle PD to `posture` [rad] (1 N m/rad,
-        0.1 N m s/rad: stable when held over a 0.1 s interval), within the torque limits."""
-        n, nt = self.model.n_joints, self.model.params.n_thrusters
-        v, w = h[6 + n:9 + n], h[9 + n:12 + n]
-        hold = np.concatenate([np.zeros(3), -20.0 * np.array([h[3], h[4], 0.0]) - 5.0 * w])
-        lo_t, hi_t = self._thrust_limit[:, 0], self._thrust_limit[:, 1]
-        base = np.clip(self._pinv @ hold, lo_t, hi_t)
-        brake = self._pinv @ np.concatenate([-v, np.zeros(3)])
-        room = np.where(brake > 0, hi_t - base, lo_t - base)
-        moving = np.abs(brake) > 1e-12
-        scale = np.min(room[moving] / brake[moving]) if np.any(moving) else 0.0
-        thrust = base + max(scale, 0.0) * brake
-        lo, hi = self.model.params.input_bounds()
-        M = np.asarray(self.model.mass_matrix(h))
-        b = np.asarray(self.model.bias(h, np.zeros(3), np.zeros(3))).ravel()
-        a_hull = np.linalg.solve(M[:6, :6], self._B @ thrust - b[:6])
-        tau = M[6:, :6] @ a_hull + b[6:] + 1.0 * (posture - h[6:6 + n]) - 0.1 * h[12 + n:]
-        tau = np.clip(tau, lo[nt:], hi[nt:])
-        return np.concatenate([thrust, tau])
+        self.braking = BrakingPolicy(model)
 
     def braking_rollout(self, h0: np.ndarray, current: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """States (N+1, ns) at the horizon's nodes and inputs (N, nu) under `braking_inputs`, held
-        over each interval and integrated by RK4 in 4 substeps."""
+        """States (N+1, ns) at the horizon's nodes and inputs (N, nu) under maximum braking with
+        the joints held at their posture (controller.rollouts.BrakingPolicy), held over each
+        interval and integrated by RK4 in 4 substeps."""
         s = self.settings
-        hs, us = [np.asarray(h0, float)], []
-        posture = hs[0][6:6 + self.model.n_joints]
-        for _ in range(s.horizon):
-            u = self.braking_inputs(hs[-1], posture)
-            h = hs[-1]
-            for _ in range(4):
-                h = self.model.step(h, u, s.dt / 4, vc=current)
-            hs.append(h)
-            us.append(u)
-        return np.array(hs), np.array(us)
+        h0 = np.asarray(h0, float)
+        return rollout(self.model, self.braking, h0, h0[6:6 + self.model.n_joints], s.dt, s.horizon, current=current)
 
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
                  previous: OCPSolution | None = None) -> Certificate:

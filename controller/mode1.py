@@ -24,9 +24,9 @@ from enum import Enum
 import casadi as ca
 import numpy as np
 
-from controller.kinematics import euler_rates, euler_zyx
 from controller.model import UVMSModel
 from controller.stage_nlp import StageProblem, build_solver
+from controller.transcription import clearances, midpoint_residual
 from uvms.scene import Plane
 
 
@@ -98,20 +98,8 @@ class ModeIOCP:
         # stage functions (SX; inlined into one SX NLP)
         h, h1, u, a = ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv)
         vc = ca.SX.sym("vc", 3)
-        hm = (h + h1) / 2
-        Q = sum(model.generalized_forces(hm, u, ca.DM.zeros(6), ca.DM.eye(3), vc, ca.DM.zeros(3)))
-        R = euler_zyx(hm[3], hm[4], hm[5])
-        eta_dot = ca.vertcat(R @ hm[6 + n:9 + n], euler_rates(hm[3:6], hm[9 + n:12 + n]), hm[12 + n:])
-        dyn = ca.vertcat(h1[:nv] - h[:nv] - dt * eta_dot, h1[nv:] - h[nv:] - dt * a,
-                         model.mass_matrix(hm) @ a - Q)
-        self._dynamics = ca.Function("dyn", [h, u, a, h1, vc], [dyn])
-        clear = []
-        x_ee = model.ee_pose(h)[0]
-        for pl in self.planes:
-            clear.append(model.distances(h, ca.DM(pl.normal), pl.offset))
-            if n:
-                clear.append(ca.dot(ca.DM(pl.normal), x_ee) + pl.offset - p.arm.tip_radius)
-        self._clearance = ca.Function("clear", [h], [ca.vertcat(*clear) if clear else ca.SX.zeros(0)])
+        self._dynamics = ca.Function("dyn", [h, u, a, h1, vc], [midpoint_residual(model, h, u, a, h1, dt, vc)])
+        self._clearance = ca.Function("clear", [h], [clearances(model, h, self.planes)])
         self.n_clear = self._clearance.size1_out(0)
         self.n_slack = self.n_clear if min_violation else 0
         self._nz = ns + nu + nv + self.n_slack
@@ -133,7 +121,7 @@ class ModeIOCP:
             problem = StageProblem(nx=ns, nv=self._nz - ns, horizon=N, np=2 * ns + 3, cost=stage_cost,
                                    constraints=stage_constraints)
             kind = "minviol" if min_violation else "mode1"
-            self.solver = build_solver(problem, f"{kind}_{p.name}_{p.arm.name}_N{N}", ipopt)
+            self.solver = build_solver(problem, f"{kind}_{p.name}_{p.arm.name}", ipopt)
         else:
             w, Pn = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + 3)
             stages = [w[k * self._nz:(k + 1) * self._nz + ns] for k in range(N)]

@@ -120,6 +120,7 @@ class Arm:
     stowed: np.ndarray  # rad, folded for transit (the paper's "arm stowed")
     end_effector: np.ndarray  # (3,) m, in the last link's frame
     tip_radius: float  # m
+    tip_force_limit: float  # N, largest contact force the jaws may take
 
     @property
     def n_joints(self) -> int:
@@ -168,7 +169,7 @@ class UVMSParams:
     def without_arm(self) -> UVMSParams:
         """The hull alone (zero links): for hull-only experiments."""
         arm = Arm(name="none", links=(), home=_frozen([]), stowed=_frozen([]), end_effector=_frozen([0, 0, 0]),
-                  tip_radius=self.arm.tip_radius)
+                  tip_radius=self.arm.tip_radius, tip_force_limit=self.arm.tip_force_limit)
         return replace(self, arm=arm)
 
 
@@ -381,7 +382,8 @@ def _arm(name: str, t: _Table, links: dict[str, Link]) -> Arm:
     home = postures["home"]
     arm = Arm(name=name, links=chain, home=home, stowed=postures["stowed"],
               end_effector=t.quantity("end_effector", "m", (3,)),
-              tip_radius=t.scalar("tip_radius", "m", min_value=0.0, strict_min=True))
+              tip_radius=t.scalar("tip_radius", "m", min_value=0.0, strict_min=True),
+              tip_force_limit=t.scalar("tip_force_limit", "N", min_value=0.0, strict_min=True))
     t.finish()
     return arm
 

@@ -1,0 +1,209 @@
+"""Mode II of the switching NMPC (paper Sec. IV-B): bring the end-effector into contact with the
+obstacle at the end of the horizon, every body kept off every plane, with the timestep optimized.
+
+Variables per stage: x_k = (h_k, dt_k), v_k = (u_k, a_k), with dt_k+1 = dt_k. Carrying the one
+timestep dt as a state keeps the NLP stage-structured (controller.stage_nlp). Constraints: the
+midpoint dynamics over dt (controller.transcription), dt_min <= dt <= dt_max, input and joint
+bounds, the clearances of controller.transcription.clearances (the end-effector may touch the
+contact plane only) and, at the last node, the tip on the contact plane (eq.
+EE_Wall_Dist_Constraint). Objective (eq. Obj2): 1/(d_0,N + eps) + w |V_ee,N| with the hull's
+distance d_0 and the end-effector's velocity at the last node, plus 1e-4 of Mode I's input effort
+as a regularization (the paper's objective alone leaves the inputs of most stages free).
+
+Algorithm 1's variable horizon: each horizon length N_p is a different NLP. They are built lazily
+and cached per N_p; the compiled stage derivatives do not depend on N_p, so every horizon shares
+one shared object and a new N_p costs only the assembly of the NLP (~0.2 s).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from controller.mode1 import SolverStatus
+from controller.model import UVMSModel
+from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
+from controller.stage_nlp import StageProblem, build_solver
+from controller.transcription import clearances, midpoint_residual, smooth_norm, tip_gap
+from uvms.scene import Plane
+
+_STATUS = {"Solve_Succeeded": SolverStatus.SUCCESS, "Solved_To_Acceptable_Level": SolverStatus.SUCCESS,
+           "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER,
+           "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE}
+
+
+def ipopt_status(stats: dict) -> SolverStatus:
+    return _STATUS.get(stats["return_status"], SolverStatus.FAILED)
+
+
+@dataclass(frozen=True)
+class ModeIISettings:
+    """Mode II settings (s, m; weights make the cost's terms 1/m and s/m)."""
+
+    horizon: int = 20  # N_p on entry
+    dt_nominal: float = 0.1  # s (Algorithm 1's dt_nom)
+    dt_bounds: tuple[float, float] = (0.02, 0.1)  # s (dt_max = dt_nom: Algorithm 1 then shortens N_p every step)
+    eps: float = 0.05  # m, J_II's epsilon
+    ee_speed_weight: float = 2.0  # s/m, J_II's w
+    ee_speed_smoothing: float = 0.02  # m/s: |V_ee| taken as sqrt(|V_ee|^2 + this^2)
+    input_weight: float = 1e-7  # 1/N^2 regularization
+    distance_margin: float = 0.005  # m, bodies' clearance (the paper: >= 0)
+    deploy_stiffness: float = 10.0  # N m/rad, the initial guess's arm PD
+    deploy_damping: float = 1.5  # N m s/rad
+    max_iter: int = 300
+    tol: float = 1e-6
+    ipopt_options: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ModeIISolution:
+    status: SolverStatus
+    h: np.ndarray  # (N+1, ns)
+    u: np.ndarray  # (N, nu)
+    dt: float  # s
+    solve_time: float  # s
+    iterations: int
+    cost: float
+    w: np.ndarray
+
+
+class ModeIIOCP:
+    """Mode II's NLPs for one model, a set of planes and the contact plane's index."""
+
+    def __init__(self, model: UVMSModel, planes: Sequence[Plane], contact: int,
+                 settings: ModeIISettings = ModeIISettings()):
+        self.model, self.planes, self.contact, self.settings = model, tuple(planes), contact, settings
+        p, s = model.params, settings
+        ns, nu, nv = model.n_states, model.n_inputs, model.n_speeds
+        self.ns, self.nu, self.nv = ns, nu, nv
+        plane = self.planes[contact]
+        h, h1, u, a, dt, dt1 = (ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv),
+                                ca.SX.sym("dt"), ca.SX.sym("dt1"))
+        P = ca.SX.sym("P", ns + 1 + 3)  # h0, dt0 (unused: dt_0 is free), current
+        vc = P[ns + 1:]
+        self._clearance = ca.Function("clear2", [h], [clearances(model, h, self.planes, contact)])
+        self.n_clear = self._clearance.size1_out(0)
+        st = ca.vertcat(h, dt, u, a, h1, dt1)
+        cons = ca.vertcat(midpoint_residual(model, h, u, a, h1, dt, vc), dt1 - dt, self._clearance(h1))
+        cost = s.input_weight * ca.dot(u, u)
+        xN = ca.vertcat(h1, dt1)
+        d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
+        v_ee = model.jacobian_ee(h1)[:3, :] @ h1[nv:]
+        terminal_cost = 1 / (d0 + s.eps) + s.ee_speed_weight * smooth_norm(v_ee, s.ee_speed_smoothing)
+        self._stage = (ca.Function("cost2", [st, P], [cost]), ca.Function("cons2", [st, P], [cons]),
+                       ca.Function("tcost2", [xN, P], [terminal_cost]),
+                       ca.Function("tcons2", [xN, P], [tip_gap(model, h1, plane)]))
+        self._name = f"mode2_{p.name}_{p.arm.name}_{plane.name}"
+        self._ipopt = {"print_level": 0, "max_iter": s.max_iter, "tol": s.tol, "mu_init": 0.1, "sb": "yes",
+                       **s.ipopt_options}
+        self._solvers: dict[int, ca.Function] = {}
+        self._lo_u, self._hi_u = p.input_bounds()
+        self._q_lo = np.array([lk.joint_range[0] for lk in p.arm.links])
+        self._q_hi = np.array([lk.joint_range[1] for lk in p.arm.links])
+        self.reach = ReachPosture(model, plane)
+        self.deploy = BrakingPolicy(model, JointHold(s.deploy_stiffness, s.deploy_damping))
+
+    def solver(self, N: int) -> ca.Function:
+        """The NLP for horizon N (built on first use, then cached)."""
+        if N not in self._solvers:
+            cost, cons, tcost, tcons = self._stage
+            problem = StageProblem(nx=self.ns + 1, nv=self.nu + self.nv, horizon=N, np=self.ns + 4, cost=cost,
+                                   constraints=cons, terminal_cost=tcost, terminal_constraints=tcons,
+                                   n_fixed=self.ns)
+            self._solvers[N] = build_solver(problem, self._name, self._ipopt)
+        return self._solvers[N]
+
+    # ------------------------------------------------------------------------------------------
+    def deploy_guess(self, h0: np.ndarray, N: int, current: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+        """An initial guess: brake at full thrust while the arm swings to the posture that reaches
+        furthest towards the contact plane (computed torque + PD); dt is chosen so that the
+        rollout's tip touches the plane at the last node (dt_max if it never does)."""
+        s, plane = self.settings, self.planes[self.contact]
+        posture = self.reach(h0)
+        fine, h, t_contact = s.dt_bounds[0] / 2, np.asarray(h0, float), None
+        for i in range(math.ceil(N * s.dt_bounds[1] / fine)):
+            h = self.model.step(h, self.deploy(h, posture, current), fine, vc=current)
+            if float(tip_gap(self.model, h, plane)) <= 0.0:
+                t_contact = (i + 1) * fine
+                break
+        dt = float(np.clip(t_contact / N if t_contact else s.dt_bounds[1], *s.dt_bounds))
+        hs, us = [np.asarray(h0, float)], []
+        for _ in range(N):
+            u = self.deploy(hs[-1], posture, current)
+            h = hs[-1]
+            for _ in range(4):
+                h = self.model.step(h, u, dt / 4, vc=current)
+            hs.append(h)
+            us.append(u)
+        return np.array(hs), np.array(us), dt
+
+    def resimulate(self, h0: np.ndarray, u: np.ndarray, dt: float, current: np.ndarray | None = None) -> np.ndarray:
+        """The state trajectory (N+1, ns) of inputs u (N, nu) from h0 by the model's RK4 (paper:
+        Final Algorithm)."""
+        hs = [np.asarray(h0, float)]
+        for uk in u:
+            h = hs[-1]
+            for _ in range(4):
+                h = self.model.step(h, uk, dt / 4, vc=current)
+            hs.append(h)
+        return np.array(hs)
+
+    def pack(self, hs: np.ndarray, us: np.ndarray, dt: float) -> np.ndarray:
+        N, nv = len(us), self.nv
+        blocks = [np.concatenate([hs[k], [dt], us[k], (hs[k + 1, -nv:] - hs[k, -nv:]) / dt]) for k in range(N)]
+        return np.concatenate([*blocks, hs[N], [dt]])
+
+    def solve(self, h0: np.ndarray, guess: tuple[np.ndarray, np.ndarray, float],
+              current: np.ndarray | None = None) -> ModeIISolution:
+        """Solve from h0 with a primal guess (states (N+1, ns), inputs (N, nu), dt)."""
+        hs, us, dt0 = guess
+        N, ns, nu, nv = len(us), self.ns, self.nu, self.nv
+        nz = ns + 1 + nu + nv
+        solver = self.solver(N)
+        lbw, ubw = np.full(N * nz + ns + 1, -np.inf), np.full(N * nz + ns + 1, np.inf)
+        for k in range(N + 1):
+            i = k * nz
+            lbw[i + ns], ubw[i + ns] = self.settings.dt_bounds
+            if k > 0:
+                lbw[i + 6:i + 6 + self.model.n_joints] = self._q_lo
+                ubw[i + 6:i + 6 + self.model.n_joints] = self._q_hi
+            if k < N:
+                lbw[i + ns + 1:i + ns + 1 + nu], ubw[i + ns + 1:i + ns + 1 + nu] = self._lo_u, self._hi_u
+        nc = ns + nv + 1 + self.n_clear
+        lbg, ubg = np.zeros(ns + N * nc + 1), np.zeros(ns + N * nc + 1)
+        for k in range(N):
+            i = ns + k * nc + ns + nv + 1
+            lbg[i:i + self.n_clear], ubg[i:i + self.n_clear] = self.settings.distance_margin, np.inf
+        w0 = np.clip(self.pack(hs, us, dt0), lbw, ubw)
+        P = np.concatenate([h0, [dt0], np.zeros(3) if current is None else current])
+        t0 = time.perf_counter()
+        r = solver(x0=w0, p=P, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg)
+        elapsed = time.perf_counter() - t0
+        st = solver.stats()
+        w = np.asarray(r["x"]).ravel()
+        return ModeIISolution(status=ipopt_status(st),
+                              h=np.array([w[k * nz:k * nz + ns] for k in range(N + 1)]),
+                              u=np.array([w[k * nz + ns + 1:k * nz + ns + 1 + nu] for k in range(N)]),
+                              dt=float(w[ns]), solve_time=elapsed, iterations=int(st["iter_count"]),
+                              cost=float(r["f"]), w=w)
+
+
+def next_horizon(N: int, dt: float, dt_nominal: float) -> int:
+    """Algorithm 1: N_p(k+1) = ceil(t_exp / dt_nom) with t_exp = (N_p(k) - 1) dt* (at least 1)."""
+    return max(1, math.ceil((N - 1) * dt / dt_nominal - 1e-9))
+
+
+def shifted_guess(sol: ModeIISolution, N_next: int) -> tuple[np.ndarray, float]:
+    """Inputs for the next horizon: the plan after its first interval, resampled (zero-order hold)
+    onto N_next intervals that cover the same remaining time."""
+    N = len(sol.u)
+    t_exp = (N - 1) * sol.dt
+    dt = t_exp / N_next if N > 1 else sol.dt
+    times = (np.arange(N_next) + 0.5) * dt
+    idx = np.minimum(1 + (times // sol.dt).astype(int), N - 1)
+    return sol.u[idx], dt

@@ -1,0 +1,227 @@
+"""Mode III of the switching NMPC (paper Sec. IV-C): the end-effector stays on the obstacle and the
+manipulator's contact force pushes the hull away.
+
+Variables per stage: x_k = h_k, v_k = (u_k, a_k, F_k) with F_k = (F_n, F_t1, F_t2) the contact force
+on the end-effector in the obstacle frame (x along the plane's normal, controller.transcription.
+obstacle_frame). The tip is a sphere, so the contact transmits no torque. Constraints: the midpoint
+dynamics with F_k (controller.transcription), the tip on the plane at every node (eq.
+EE_Wall_Dist_Constraint), F_n >= 0, the friction law, and the clearances of every body except the
+end-effector's link against the contact plane.
+
+Friction (eq. Friction_Constraint, smooth form): F_t = -mu F_n v_t / sqrt(|v_t|^2 + delta^2) with
+v_t the tip's tangential velocity at the interval's midpoint. It satisfies the paper's two rows
+(|F_t| = mu |F_n| when sliding, F_t opposite to the sliding direction) to within the factor
+|v_t| / sqrt(|v_t|^2 + delta^2), and below delta (1 cm/s) it is a viscous law instead of static
+friction: the controller never counts on sticking.
+
+Objective (eq. Obj3): sum_i w_i relu(-d0_dot_i) with w_i = 1 + (N - i)/(N - 1): the paper's J_III
+read as the hull's approach speed (d0_dot < 0 approaching), weighted more at the start of the
+horizon and zero once the hull moves away; relu smoothed (controller.transcription.smooth_relu,
+1 mm/s). Regularization: 1e-5 |u|^2, 1e-6 |F|^2 and 1e-3 of the squared angular and joint rates (the
+paper's objective alone leaves the inputs and the posture free once the hull separates, and IPOPT
+then creeps along that flat valley for hundreds of iterations).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from controller.kinematics import euler_zyx
+from controller.mode1 import SolverStatus
+from controller.mode2 import ipopt_status
+from controller.model import UVMSModel
+from controller.stage_nlp import StageProblem, build_solver
+from controller.transcription import clearances, midpoint_residual, obstacle_frame, smooth_relu, tip_gap
+from uvms.scene import Plane
+
+
+@dataclass(frozen=True)
+class ModeIIISettings:
+    horizon: int = 20
+    dt: float = 0.1  # s
+    friction: float = 0.5  # the controller's friction coefficient mu [-]
+    friction_smoothing: float = 0.01  # m/s, delta
+    distance_margin: float = 0.005  # m
+    input_weight: float = 1e-5  # 1/N^2
+    force_weight: float = 1e-6  # 1/N^2
+    rate_weight: float = 1e-3  # s^2/rad^2, on the hull's angular and the joints' rates
+    consistent_joint_rates: bool = False  # Algorithm 2 guesses qdot_m = 0; True: (q_k+1 - q_k) / dt
+    max_iter: int = 200
+    tol: float = 1e-6
+    ipopt_options: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ModeIIISolution:
+    status: SolverStatus
+    h: np.ndarray  # (N+1, ns)
+    u: np.ndarray  # (N, nu)
+    force: np.ndarray  # (N, 3) contact force on the end-effector, obstacle frame [N]
+    solve_time: float
+    iterations: int
+    cost: float
+    w: np.ndarray
+    lam_g: np.ndarray
+    lam_x: np.ndarray
+
+
+class ModeIIIOCP:
+    def __init__(self, model: UVMSModel, planes: Sequence[Plane], contact: int,
+                 settings: ModeIIISettings = ModeIIISettings()):
+        self.model, self.planes, self.contact, self.settings = model, tuple(planes), contact, settings
+        p, s, N = model.params, settings, settings.horizon
+        ns, nu, nv, n = model.n_states, model.n_inputs, model.n_speeds, model.n_joints
+        self.ns, self.nu, self.nv, self.nz = ns, nu, nv, ns + nu + nv + 3
+        plane = self.planes[contact]
+        self.Rw = obstacle_frame(plane.normal)
+        h, h1, u, a, F = (ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv),
+                          ca.SX.sym("F", 3))
+        P = ca.SX.sym("P", ns + 3 + 1)  # h0, current, stage weight w_i
+        vc, wi = P[ns:ns + 3], P[ns + 3]
+        hm = (h + h1) / 2
+        v_tip = model.jacobian_ee(hm)[:3, :] @ hm[nv:]
+        v_t = ca.DM(self.Rw[:, 1:]).T @ v_tip
+        friction = F[1:] + s.friction * F[0] * v_t / ca.sqrt(ca.dot(v_t, v_t) + s.friction_smoothing ** 2)
+        self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
+        self.n_clear = self._clearance.size1_out(0)
+        cons = ca.vertcat(midpoint_residual(model, h, u, a, h1, s.dt, vc, ca.vertcat(F, ca.SX.zeros(3)),
+                                            ca.DM(self.Rw)),
+                          tip_gap(model, h1, plane), friction, self._clearance(h1))
+        d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
+        rates = h1[nv + 3:]  # hull angular and joint rates
+        cost = (wi * smooth_relu(-d0_dot, 1e-3) + s.input_weight * ca.dot(u, u) + s.force_weight * ca.dot(F, F)
+                + s.rate_weight * ca.dot(rates, rates))
+        st = ca.vertcat(h, u, a, F, h1)
+        problem = StageProblem(nx=ns, nv=nu + nv + 3, horizon=N, np=ns + 3, np_stage=1,
+                               cost=ca.Function("cost3", [st, P], [cost]),
+                               constraints=ca.Function("cons3", [st, P], [cons]))
+        ipopt = {"print_level": 0, "max_iter": s.max_iter, "tol": s.tol, "mu_init": 1e-2, "sb": "yes",
+                 "acceptable_tol": 1e-3, "acceptable_iter": 3, "acceptable_constr_viol_tol": 1e-5,
+                 **s.ipopt_options}
+        self.solver = build_solver(problem, f"mode3_{p.name}_{p.arm.name}_{plane.name}", ipopt)
+        self.weights = np.array([1 + (N - i) / (N - 1) if N > 1 else 1.0 for i in range(1, N + 1)])
+        # bounds
+        lo, hi = p.input_bounds()
+        self._lo_u, self._hi_u = lo, hi
+        self._q_lo = np.array([lk.joint_range[0] for lk in p.arm.links])
+        self._q_hi = np.array([lk.joint_range[1] for lk in p.arm.links])
+        self._tau_max = hi[p.n_thrusters:]
+        nc = ns + nv + 1 + 2 + self.n_clear
+        self.lbg, self.ubg = np.zeros(ns + N * nc), np.zeros(ns + N * nc)
+        for k in range(N):
+            i = ns + k * nc + ns + nv + 3
+            self.lbg[i:i + self.n_clear], self.ubg[i:i + self.n_clear] = s.distance_margin, np.inf
+        q = ca.SX.sym("q", n)
+        hq = ca.vertcat(ca.SX.sym("pose", 6), q)
+        gap = tip_gap(model, ca.vertcat(hq, ca.SX.zeros(nv)), plane)
+        self._gap_q = ca.Function("gap_q", [hq], [gap, ca.jacobian(gap, q)])
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        N, nz, ns, nu, n = self.settings.horizon, self.nz, self.ns, self.nu, self.model.n_joints
+        lbw, ubw = np.full(N * nz + ns, -np.inf), np.full(N * nz + ns, np.inf)
+        for k in range(N + 1):
+            i = k * nz
+            if k > 0:
+                lbw[i + 6:i + 6 + n], ubw[i + 6:i + 6 + n] = self._q_lo, self._q_hi
+            if k < N:
+                lbw[i + ns:i + ns + nu], ubw[i + ns:i + ns + nu] = self._lo_u, self._hi_u
+                lbw[i + nz - 3], ubw[i + nz - 3] = 0.0, self.model.params.arm.tip_force_limit  # F_n
+        return lbw, ubw
+
+    # ------------------------------------------------------------------------------------------
+    def onto_plane(self, h: np.ndarray) -> np.ndarray:
+        """Eq. Wall_InvKin: the joint angles nearest to h's that put the tip on the plane, by
+        minimum-norm Newton steps on the contact constraint (5 iterations, joint limits clipped)."""
+        n = self.model.n_joints
+        x = np.array(h[:6 + n], float)
+        for _ in range(5):
+            g, J = (np.asarray(v, float).ravel() for v in self._gap_q(x))
+            if abs(g[0]) < 1e-6 or J @ J < 1e-12:
+                break
+            x[6:] = np.clip(x[6:] - J * g[0] / (J @ J), self._q_lo, self._q_hi)
+        return x[6:]
+
+    def pushing_force(self, h: np.ndarray) -> float:
+        """Eq. Fc_Init_OptProblem: the largest normal force [N] the joints can hold statically,
+        F_n = min_j tau_max_j / |(J_m^T n)_j|, and at most the jaws' force limit."""
+        n = self.model.n_joints
+        Jm = np.asarray(self.model.jacobian_ee(h))[:3, 6:]
+        arm = np.abs(Jm.T @ self.Rw[:, 0])
+        with np.errstate(divide="ignore"):
+            held = float(np.min(np.where(arm > 1e-9, self._tau_max / arm, np.inf))) if n else 0.0
+        return min(held, self.model.params.arm.tip_force_limit)
+
+    def stopping_force(self, h: np.ndarray) -> float:
+        """Algorithm 2's force, bounded: the smaller of the torque-limited pushing force and the
+        normal force that stops the hull's approach within one interval (effective mass along the
+        normal from the hull block of M, added mass included) [N]. The pushing force alone, held over
+        a 2 s horizon, throws the hull out of the arm's reach within a second and leaves the guess
+        90 N off the dynamics."""
+        plane = self.planes[self.contact]
+        d0_dot = float(np.asarray(self.model.closing_speeds(h, plane.normal, plane.offset)).ravel()[0])
+        R = np.asarray(ca.DM(euler_zyx(*h[3:6])))
+        n_body = R.T @ plane.normal
+        m_eff = 1.0 / float(n_body @ np.linalg.inv(np.asarray(self.model.mass_matrix(h))[:6, :6])[:3, :3] @ n_body)
+        return min(self.pushing_force(h), max(0.0, -d0_dot) * m_eff / self.settings.dt)
+
+    def locked_step(self, h: np.ndarray, thrust: np.ndarray, F: np.ndarray, dt: float,
+                    current: np.ndarray | None = None, substeps: int = 10) -> tuple[np.ndarray, np.ndarray]:
+        """The model over dt [s] under the thrust and the contact force F (obstacle frame) with the
+        joints held rigid by computed torque; returns the state and the mean joint torque [N m]."""
+        vc = np.zeros(3) if current is None else current
+        Fw, taus = np.concatenate([F, np.zeros(3)]), []
+        for _ in range(substeps):
+            u0 = np.concatenate([thrust, np.zeros(self.model.n_joints)])
+            M = np.asarray(self.model.mass_matrix(h))
+            Q = np.asarray(sum(self.model.generalized_forces(h, u0, Fw, self.Rw, vc, np.zeros(3)))).ravel()
+            a_hull = np.linalg.solve(M[:6, :6], Q[:6])
+            tau = M[6:, :6] @ a_hull - Q[6:]
+            h = self.model.step(h, np.concatenate([thrust, tau]), dt / substeps, Fw=Fw, Rw=self.Rw, vc=vc)
+            taus.append(tau)
+        return h, np.mean(taus, axis=0)
+
+    def contact_guess(self, h0: np.ndarray, us: np.ndarray, forces: np.ndarray | None,
+                      current: np.ndarray | None = None) -> np.ndarray:
+        """Algorithm 2: for each stage, the contact force (given, or `stopping_force`), the model
+        stepped with it and the inputs' thrust (joints held rigid), the hull's states kept, the arm
+        put back on the plane by Wall_InvKin, joint rates zero. Returns the primal vector."""
+        s, n, nv, nt = self.settings, self.model.n_joints, self.nv, self.model.params.n_thrusters
+        hs, Fs, Us = [np.asarray(h0, float)], [], []
+        for k in range(s.horizon):
+            F = forces[k] if forces is not None else np.array([self.stopping_force(hs[-1]), 0.0, 0.0])
+            h, tau = self.locked_step(hs[-1], us[k][:nt], F, s.dt, current)
+            q = self.onto_plane(h)
+            h[6:6 + n], h[12 + n:] = q, (q - hs[-1][6:6 + n]) / s.dt if s.consistent_joint_rates else 0.0
+            hs.append(h)
+            Fs.append(F)
+            Us.append(np.concatenate([us[k][:nt], np.clip(tau, -self._tau_max, self._tau_max)]))
+        blocks = [np.concatenate([hs[k], Us[k], (hs[k + 1][nv:] - hs[k][nv:]) / s.dt, Fs[k]])
+                  for k in range(s.horizon)]
+        return np.concatenate([*blocks, hs[-1]])
+
+    def unpack(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        N, nz, ns, nu = self.settings.horizon, self.nz, self.ns, self.nu
+        return (np.array([w[k * nz:k * nz + ns] for k in range(N + 1)]),
+                np.array([w[k * nz + ns:k * nz + ns + nu] for k in range(N)]),
+                np.array([w[(k + 1) * nz - 3:(k + 1) * nz] for k in range(N)]))
+
+    def solve(self, h0: np.ndarray, guess: np.ndarray, current: np.ndarray | None = None,
+              duals: tuple[np.ndarray, np.ndarray] | None = None) -> ModeIIISolution:
+        lbw, ubw = self.bounds()
+        P = np.concatenate([h0, np.zeros(3) if current is None else current, self.weights])
+        args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
+        if duals is not None:
+            args.update(lam_g0=duals[0], lam_x0=duals[1])
+        t0 = time.perf_counter()
+        r = self.solver(**args)
+        elapsed = time.perf_counter() - t0
+        st = self.solver.stats()
+        w = np.asarray(r["x"]).ravel()
+        hs, us, Fs = self.unpack(w)
+        return ModeIIISolution(ipopt_status(st), hs, us, Fs, elapsed, int(st["iter_count"]), float(r["f"]), w,
+                               np.asarray(r["lam_g"]).ravel(), np.asarray(r["lam_x"]).ravel())

@@ -1,0 +1,92 @@
+"""Model rollouts under simple feedback policies: the feasibility screen's maximum braking and the
+initial guesses of Modes II and III."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from controller.model import UVMSModel
+from uvms.scene import Plane
+
+
+@dataclass(frozen=True)
+class JointHold:
+    """Joint PD towards a posture, on top of computed torque (N m/rad, N m s/rad)."""
+
+    stiffness: float = 1.0
+    damping: float = 0.1
+
+
+class BrakingPolicy:
+    """Maximum braking with attitude hold. The thrusters first serve an attitude PD (level roll and
+    pitch, heading and angular rates held; 20 N m/rad, 5 N m s/rad), and the largest force against
+    the hull's body velocity that the remaining thruster range allows is added. Joint torques by
+    computed torque: those that make the joints' acceleration zero under this thrust
+    (M [a_hull; 0] + b = [B u; tau]), plus a PD to `posture` [rad], within the torque limits."""
+
+    def __init__(self, model: UVMSModel, hold: JointHold = JointHold()):
+        p = model.params
+        self.model, self.hold = model, hold
+        self._B = p.allocation_matrix()
+        self._pinv = np.linalg.pinv(self._B)
+        self._thrust_limit = np.array([t.force_range for t in p.thrusters])
+        self._lo, self._hi = p.input_bounds()
+
+    def __call__(self, h: np.ndarray, posture: np.ndarray, current: np.ndarray | None = None) -> np.ndarray:
+        model, n, nt = self.model, self.model.n_joints, self.model.params.n_thrusters
+        vc = np.zeros(3) if current is None else current
+        v, w = h[6 + n:9 + n], h[9 + n:12 + n]
+        hold = np.concatenate([np.zeros(3), -20.0 * np.array([h[3], h[4], 0.0]) - 5.0 * w])
+        lo_t, hi_t = self._thrust_limit[:, 0], self._thrust_limit[:, 1]
+        base = np.clip(self._pinv @ hold, lo_t, hi_t)
+        brake = self._pinv @ np.concatenate([-v, np.zeros(3)])
+        room = np.where(brake > 0, hi_t - base, lo_t - base)
+        moving = np.abs(brake) > 1e-12
+        scale = np.min(room[moving] / brake[moving]) if np.any(moving) else 0.0
+        thrust = base + max(scale, 0.0) * brake
+        M = np.asarray(model.mass_matrix(h))
+        b = np.asarray(model.bias(h, vc, np.zeros(3))).ravel()
+        a_hull = np.linalg.solve(M[:6, :6], self._B @ thrust - b[:6])
+        tau = (M[6:, :6] @ a_hull + b[6:] + self.hold.stiffness * (posture - h[6:6 + n])
+               - self.hold.damping * h[12 + n:])
+        return np.concatenate([thrust, np.clip(tau, self._lo[nt:], self._hi[nt:])])
+
+
+def rollout(model: UVMSModel, policy: BrakingPolicy, h0: np.ndarray, posture: np.ndarray, dt: float, steps: int,
+            substeps: int = 4, current: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """States (steps+1, ns) and inputs (steps, nu): the policy's input held over each interval of
+    dt [s], integrated by the model's RK4 in `substeps`."""
+    hs, us = [np.asarray(h0, float)], []
+    for _ in range(steps):
+        u = policy(hs[-1], posture, current)
+        h = hs[-1]
+        for _ in range(substeps):
+            h = model.step(h, u, dt / substeps, vc=current)
+        hs.append(h)
+        us.append(u)
+    return np.array(hs), np.array(us)
+
+
+class ReachPosture:
+    """Joint angles [rad] that bring the end-effector tip furthest towards a plane for a given hull
+    pose: min n.x_ee(q) over the joint range (+1e-3 |q - q_now|^2 to make it unique)."""
+
+    def __init__(self, model: UVMSModel, plane: Plane):
+        n = model.n_joints
+        q, pose, q_now = ca.SX.sym("q", n), ca.SX.sym("pose", 6), ca.SX.sym("q_now", n)
+        h = ca.vertcat(pose, q, ca.SX.zeros(model.n_speeds))
+        reach = ca.dot(ca.DM(plane.normal), model.ee_pose(h)[0])
+        self._solver = ca.nlpsol("reach", "ipopt", {"x": q, "p": ca.vertcat(pose, q_now),
+                                                    "f": reach + 1e-3 * ca.sumsqr(q - q_now)},
+                                 {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 100}})
+        self._lo = [lk.joint_range[0] for lk in model.params.arm.links]
+        self._hi = [lk.joint_range[1] for lk in model.params.arm.links]
+        self.n = n
+
+    def __call__(self, h: np.ndarray) -> np.ndarray:
+        q_now = h[6:6 + self.n]
+        r = self._solver(x0=q_now, p=np.concatenate([h[:6], q_now]), lbx=self._lo, ubx=self._hi)
+        return np.asarray(r["x"]).ravel()
