@@ -150,6 +150,13 @@ class ModeIOCP:
             self.ubg[idx:idx + self.n_clear] = np.inf
             idx += self.n_clear
 
+    def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
+        nu, ns = self.nu, self.ns
+        for k in range(self.settings.horizon):
+            i = k * self._nz + ns
+            self.lbw[i:i + nu], self.ubw[i:i + nu] = lo, hi
+
     # ------------------------------------------------------------------------------------------
     def guess_from_rollout(self, h: np.ndarray, u: np.ndarray) -> np.ndarray:
         """A primal start from a state trajectory h (N+1, ns) under inputs u (N, nu): accelerations
@@ -185,10 +192,10 @@ class ModeIOCP:
 
     def solve(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
               previous: OCPSolution | None = None, guess: np.ndarray | None = None) -> OCPSolution:
-        """Solve from state h0 towards h_ref; warm-started from `previous` when given, else from the
-        primal `guess` (e.g. `guess_from_rollout`), else from h0 held."""
+        """Solve from state h0 towards h_ref. Primal start: `guess` (e.g. `guess_from_rollout`) when
+        given, else `previous` shifted by one stage, else h0 held; dual start: `previous` shifted."""
         w0, lam_g, lam_x = self.initial_guess(np.asarray(h0, float), previous)
-        if previous is None and guess is not None:
+        if guess is not None:
             w0 = guess
         args = {"x0": w0, "p": np.concatenate([h0, h_ref, np.zeros(3) if current is None else current]),
                 "lbx": self.lbw, "ubx": self.ubw, "lbg": self.lbg, "ubg": self.ubg}

@@ -7,10 +7,14 @@ midpoint dynamics over dt (controller.transcription), dt_min <= dt <= dt_max, in
 bounds, the clearances of controller.transcription.clearances (the end-effector may touch the
 contact plane only) and, at the last node, the tip on the contact plane (eq.
 EE_Wall_Dist_Constraint). Objective (eq. Obj2): 1/(d_0,N + eps) + w |V_ee,N| with the hull's
-distance d_0 and the end-effector's velocity at the last node, plus 1e-4 of Mode I's input effort
-as a regularization (the paper's objective alone leaves the inputs of most stages free).
+distance d_0 and the end-effector's velocity at the last node, plus a regularization of the inputs
+(1e-7 /N^2) and of the angular and joint rates (1e-2 s^2/rad^2): the paper's objective alone leaves
+the inputs of most stages free, and the arm then thrashed between solves.
 
-Algorithm 1's variable horizon: each horizon length N_p is a different NLP. They are built lazily
+Algorithm 1's variable horizon: on entry, N_p = ceil(t_c / dt_nom) with t_c the time to contact of a
+braking-and-deploying rollout (Algorithm 1's own rule, with t_exp estimated; the paper starts from
+the nominal N_p, which with dt >= dt_min forbids contact sooner than N_p dt_min). Each horizon
+length N_p is a different NLP. They are built lazily
 and cached per N_p; the compiled stage derivatives do not depend on N_p, so every horizon shares
 one shared object and a new N_p costs only the assembly of the NLP (~0.2 s).
 """
@@ -47,11 +51,12 @@ class ModeIISettings:
 
     horizon: int = 20  # N_p on entry
     dt_nominal: float = 0.1  # s (Algorithm 1's dt_nom)
-    dt_bounds: tuple[float, float] = (0.02, 0.1)  # s (dt_max = dt_nom: Algorithm 1 then shortens N_p every step)
+    dt_bounds: tuple[float, float] = (0.05, 0.1)  # s (dt_max = dt_nom: Algorithm 1 then shortens N_p every step)
     eps: float = 0.05  # m, J_II's epsilon
     ee_speed_weight: float = 2.0  # s/m, J_II's w
     ee_speed_smoothing: float = 0.02  # m/s: |V_ee| taken as sqrt(|V_ee|^2 + this^2)
     input_weight: float = 1e-7  # 1/N^2 regularization
+    rate_weight: float = 1e-2  # s^2/rad^2, on the hull's angular and the joints' rates (no thrashing)
     distance_margin: float = 0.005  # m, bodies' clearance (the paper: >= 0)
     deploy_stiffness: float = 10.0  # N m/rad, the initial guess's arm PD
     deploy_damping: float = 1.5  # N m s/rad
@@ -90,7 +95,8 @@ class ModeIIOCP:
         self.n_clear = self._clearance.size1_out(0)
         st = ca.vertcat(h, dt, u, a, h1, dt1)
         cons = ca.vertcat(midpoint_residual(model, h, u, a, h1, dt, vc), dt1 - dt, self._clearance(h1))
-        cost = s.input_weight * ca.dot(u, u)
+        rates = h1[nv + 3:]  # hull angular and joint rates
+        cost = s.input_weight * ca.dot(u, u) + s.rate_weight * ca.dot(rates, rates)
         xN = ca.vertcat(h1, dt1)
         d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
         v_ee = model.jacobian_ee(h1)[:3, :] @ h1[nv:]
@@ -108,6 +114,11 @@ class ModeIIOCP:
         self.reach = ReachPosture(model, plane)
         self.deploy = BrakingPolicy(model, JointHold(s.deploy_stiffness, s.deploy_damping))
 
+    def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
+        self._lo_u, self._hi_u = np.asarray(lo, float), np.asarray(hi, float)
+        self.deploy.limit_thrust(lo, hi)
+
     def solver(self, N: int) -> ca.Function:
         """The NLP for horizon N (built on first use, then cached)."""
         if N not in self._solvers:
@@ -119,18 +130,20 @@ class ModeIIOCP:
         return self._solvers[N]
 
     # ------------------------------------------------------------------------------------------
-    def deploy_guess(self, h0: np.ndarray, N: int, current: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
-        """An initial guess: brake at full thrust while the arm swings to the posture that reaches
-        furthest towards the contact plane (computed torque + PD); dt is chosen so that the
-        rollout's tip touches the plane at the last node (dt_max if it never does)."""
+    def deploy_guess(self, h0: np.ndarray, N_max: int, current: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+        """The entry guess: brake at full thrust while the arm swings to the posture that reaches
+        furthest towards the contact plane (computed torque + PD). The rollout's time to contact
+        t_c sets the horizon as Algorithm 1 does for later steps, N_p = ceil(t_c / dt_nom) (at most
+        N_max; N_max and dt_max if the tip never reaches the plane), and dt = t_c / N_p."""
         s, plane = self.settings, self.planes[self.contact]
         posture = self.reach(h0)
-        fine, h, t_contact = s.dt_bounds[0] / 2, np.asarray(h0, float), None
-        for i in range(math.ceil(N * s.dt_bounds[1] / fine)):
+        fine, h, t_contact = 0.01, np.asarray(h0, float), None
+        for i in range(math.ceil(N_max * s.dt_bounds[1] / fine)):
             h = self.model.step(h, self.deploy(h, posture, current), fine, vc=current)
             if float(tip_gap(self.model, h, plane)) <= 0.0:
                 t_contact = (i + 1) * fine
                 break
+        N = min(N_max, next_horizon(2, t_contact, s.dt_nominal)) if t_contact else N_max
         dt = float(np.clip(t_contact / N if t_contact else s.dt_bounds[1], *s.dt_bounds))
         hs, us = [np.asarray(h0, float)], []
         for _ in range(N):

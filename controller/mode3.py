@@ -17,9 +17,16 @@ friction: the controller never counts on sticking.
 Objective (eq. Obj3): sum_i w_i relu(-d0_dot_i) with w_i = 1 + (N - i)/(N - 1): the paper's J_III
 read as the hull's approach speed (d0_dot < 0 approaching), weighted more at the start of the
 horizon and zero once the hull moves away; relu smoothed (controller.transcription.smooth_relu,
-1 mm/s). Regularization: 1e-5 |u|^2, 1e-6 |F|^2 and 1e-3 of the squared angular and joint rates (the
-paper's objective alone leaves the inputs and the posture free once the hull separates, and IPOPT
-then creeps along that flat valley for hundreds of iterations).
+1 cm/s: with 1 mm/s its curvature made the Hessian indefinite and IPOPT crept). IPOPT stops at its
+acceptable level (dual infeasibility 1e-2, constraints 1e-5) after 3 such iterations: a feasible
+plan matters here more than the last digits of the optimum. Regularization: 1e-5 |u|^2, 1e-6 |F|^2
+and 1e-3 of the squared angular and joint rates (the paper's objective alone leaves the inputs and
+the posture free once the hull separates, and IPOPT then creeps along that flat valley for hundreds
+of iterations).
+
+The horizon is 10 intervals (1 s) by default, not the paper's 20: with the tip held on the plane
+at every node, a 2 s plan must keep a drifting hull within the arm's reach and often has no
+solution.
 """
 
 from __future__ import annotations
@@ -42,10 +49,11 @@ from uvms.scene import Plane
 
 @dataclass(frozen=True)
 class ModeIIISettings:
-    horizon: int = 20
+    horizon: int = 10  # the paper uses N_p = 20 for all modes; 10 (1 s) solves reliably (see the note)
     dt: float = 0.1  # s
     friction: float = 0.5  # the controller's friction coefficient mu [-]
     friction_smoothing: float = 0.01  # m/s, delta
+    approach_smoothing: float = 0.01  # m/s, the relu of J_III (curvature 1/this at d0_dot = 0)
     distance_margin: float = 0.005  # m
     input_weight: float = 1e-5  # 1/N^2
     force_weight: float = 1e-6  # 1/N^2
@@ -71,38 +79,65 @@ class ModeIIISolution:
 
 
 class ModeIIIOCP:
-    def __init__(self, model: UVMSModel, planes: Sequence[Plane], contact: int,
-                 settings: ModeIIISettings = ModeIIISettings()):
+    def __init__(
+        self, model: UVMSModel, planes: Sequence[Plane], contact: int, settings: ModeIIISettings = ModeIIISettings()
+    ):
         self.model, self.planes, self.contact, self.settings = model, tuple(planes), contact, settings
         p, s, N = model.params, settings, settings.horizon
         ns, nu, nv, n = model.n_states, model.n_inputs, model.n_speeds, model.n_joints
         self.ns, self.nu, self.nv, self.nz = ns, nu, nv, ns + nu + nv + 3
         plane = self.planes[contact]
         self.Rw = obstacle_frame(plane.normal)
-        h, h1, u, a, F = (ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv),
-                          ca.SX.sym("F", 3))
+        h, h1, u, a, F = (
+            ca.SX.sym("h", ns),
+            ca.SX.sym("h1", ns),
+            ca.SX.sym("u", nu),
+            ca.SX.sym("a", nv),
+            ca.SX.sym("F", 3),
+        )
         P = ca.SX.sym("P", ns + 3 + 1)  # h0, current, stage weight w_i
-        vc, wi = P[ns:ns + 3], P[ns + 3]
+        vc, wi = P[ns : ns + 3], P[ns + 3]
         hm = (h + h1) / 2
         v_tip = model.jacobian_ee(hm)[:3, :] @ hm[nv:]
         v_t = ca.DM(self.Rw[:, 1:]).T @ v_tip
-        friction = F[1:] + s.friction * F[0] * v_t / ca.sqrt(ca.dot(v_t, v_t) + s.friction_smoothing ** 2)
+        friction = F[1:] + s.friction * F[0] * v_t / ca.sqrt(ca.dot(v_t, v_t) + s.friction_smoothing**2)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
         self.n_clear = self._clearance.size1_out(0)
-        cons = ca.vertcat(midpoint_residual(model, h, u, a, h1, s.dt, vc, ca.vertcat(F, ca.SX.zeros(3)),
-                                            ca.DM(self.Rw)),
-                          tip_gap(model, h1, plane), friction, self._clearance(h1))
+        cons = ca.vertcat(
+            midpoint_residual(model, h, u, a, h1, s.dt, vc, ca.vertcat(F, ca.SX.zeros(3)), ca.DM(self.Rw)),
+            tip_gap(model, h1, plane),
+            friction,
+            self._clearance(h1),
+        )
         d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
-        rates = h1[nv + 3:]  # hull angular and joint rates
-        cost = (wi * smooth_relu(-d0_dot, 1e-3) + s.input_weight * ca.dot(u, u) + s.force_weight * ca.dot(F, F)
-                + s.rate_weight * ca.dot(rates, rates))
+        rates = h1[nv + 3 :]  # hull angular and joint rates
+        cost = (
+            wi * smooth_relu(-d0_dot, s.approach_smoothing)
+            + s.input_weight * ca.dot(u, u)
+            + s.force_weight * ca.dot(F, F)
+            + s.rate_weight * ca.dot(rates, rates)
+        )
         st = ca.vertcat(h, u, a, F, h1)
-        problem = StageProblem(nx=ns, nv=nu + nv + 3, horizon=N, np=ns + 3, np_stage=1,
-                               cost=ca.Function("cost3", [st, P], [cost]),
-                               constraints=ca.Function("cons3", [st, P], [cons]))
-        ipopt = {"print_level": 0, "max_iter": s.max_iter, "tol": s.tol, "mu_init": 1e-2, "sb": "yes",
-                 "acceptable_tol": 1e-3, "acceptable_iter": 3, "acceptable_constr_viol_tol": 1e-5,
-                 **s.ipopt_options}
+        problem = StageProblem(
+            nx=ns,
+            nv=nu + nv + 3,
+            horizon=N,
+            np=ns + 3,
+            np_stage=1,
+            cost=ca.Function("cost3", [st, P], [cost]),
+            constraints=ca.Function("cons3", [st, P], [cons]),
+        )
+        ipopt = {
+            "print_level": 0,
+            "max_iter": s.max_iter,
+            "tol": s.tol,
+            "mu_init": 1e-2,
+            "sb": "yes",
+            "acceptable_tol": 1e-2,
+            "acceptable_iter": 3,
+            "acceptable_constr_viol_tol": 1e-5,
+            **s.ipopt_options,
+        }
         self.solver = build_solver(problem, f"mode3_{p.name}_{p.arm.name}_{plane.name}", ipopt)
         self.weights = np.array([1 + (N - i) / (N - 1) if N > 1 else 1.0 for i in range(1, N + 1)])
         # bounds
@@ -110,16 +145,20 @@ class ModeIIIOCP:
         self._lo_u, self._hi_u = lo, hi
         self._q_lo = np.array([lk.joint_range[0] for lk in p.arm.links])
         self._q_hi = np.array([lk.joint_range[1] for lk in p.arm.links])
-        self._tau_max = hi[p.n_thrusters:]
+        self._tau_max = hi[p.n_thrusters :]
         nc = ns + nv + 1 + 2 + self.n_clear
         self.lbg, self.ubg = np.zeros(ns + N * nc), np.zeros(ns + N * nc)
         for k in range(N):
             i = ns + k * nc + ns + nv + 3
-            self.lbg[i:i + self.n_clear], self.ubg[i:i + self.n_clear] = s.distance_margin, np.inf
+            self.lbg[i : i + self.n_clear], self.ubg[i : i + self.n_clear] = s.distance_margin, np.inf
         q = ca.SX.sym("q", n)
         hq = ca.vertcat(ca.SX.sym("pose", 6), q)
         gap = tip_gap(model, ca.vertcat(hq, ca.SX.zeros(nv)), plane)
         self._gap_q = ca.Function("gap_q", [hq], [gap, ca.jacobian(gap, q)])
+
+    def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
+        self._lo_u, self._hi_u = np.asarray(lo, float), np.asarray(hi, float)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         N, nz, ns, nu, n = self.settings.horizon, self.nz, self.ns, self.nu, self.model.n_joints
@@ -127,9 +166,9 @@ class ModeIIIOCP:
         for k in range(N + 1):
             i = k * nz
             if k > 0:
-                lbw[i + 6:i + 6 + n], ubw[i + 6:i + 6 + n] = self._q_lo, self._q_hi
+                lbw[i + 6 : i + 6 + n], ubw[i + 6 : i + 6 + n] = self._q_lo, self._q_hi
             if k < N:
-                lbw[i + ns:i + ns + nu], ubw[i + ns:i + ns + nu] = self._lo_u, self._hi_u
+                lbw[i + ns : i + ns + nu], ubw[i + ns : i + ns + nu] = self._lo_u, self._hi_u
                 lbw[i + nz - 3], ubw[i + nz - 3] = 0.0, self.model.params.arm.tip_force_limit  # F_n
         return lbw, ubw
 
@@ -138,7 +177,7 @@ class ModeIIIOCP:
         """Eq. Wall_InvKin: the joint angles nearest to h's that put the tip on the plane, by
         minimum-norm Newton steps on the contact constraint (5 iterations, joint limits clipped)."""
         n = self.model.n_joints
-        x = np.array(h[:6 + n], float)
+        x = np.array(h[: 6 + n], float)
         for _ in range(5):
             g, J = (np.asarray(v, float).ravel() for v in self._gap_q(x))
             if abs(g[0]) < 1e-6 or J @ J < 1e-12:
@@ -169,8 +208,15 @@ class ModeIIIOCP:
         m_eff = 1.0 / float(n_body @ np.linalg.inv(np.asarray(self.model.mass_matrix(h))[:6, :6])[:3, :3] @ n_body)
         return min(self.pushing_force(h), max(0.0, -d0_dot) * m_eff / self.settings.dt)
 
-    def locked_step(self, h: np.ndarray, thrust: np.ndarray, F: np.ndarray, dt: float,
-                    current: np.ndarray | None = None, substeps: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    def locked_step(
+        self,
+        h: np.ndarray,
+        thrust: np.ndarray,
+        F: np.ndarray,
+        dt: float,
+        current: np.ndarray | None = None,
+        substeps: int = 10,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The model over dt [s] under the thrust and the contact force F (obstacle frame) with the
         joints held rigid by computed torque; returns the state and the mean joint torque [N m]."""
         vc = np.zeros(3) if current is None else current
@@ -185,8 +231,9 @@ class ModeIIIOCP:
             taus.append(tau)
         return h, np.mean(taus, axis=0)
 
-    def contact_guess(self, h0: np.ndarray, us: np.ndarray, forces: np.ndarray | None,
-                      current: np.ndarray | None = None) -> np.ndarray:
+    def contact_guess(
+        self, h0: np.ndarray, us: np.ndarray, forces: np.ndarray | None, current: np.ndarray | None = None
+    ) -> np.ndarray:
         """Algorithm 2: for each stage, the contact force (given, or `stopping_force`), the model
         stepped with it and the inputs' thrust (joints held rigid), the hull's states kept, the arm
         put back on the plane by Wall_InvKin, joint rates zero. Returns the primal vector."""
@@ -196,22 +243,28 @@ class ModeIIIOCP:
             F = forces[k] if forces is not None else np.array([self.stopping_force(hs[-1]), 0.0, 0.0])
             h, tau = self.locked_step(hs[-1], us[k][:nt], F, s.dt, current)
             q = self.onto_plane(h)
-            h[6:6 + n], h[12 + n:] = q, (q - hs[-1][6:6 + n]) / s.dt if s.consistent_joint_rates else 0.0
+            h[6 : 6 + n], h[12 + n :] = q, (q - hs[-1][6 : 6 + n]) / s.dt if s.consistent_joint_rates else 0.0
             hs.append(h)
             Fs.append(F)
             Us.append(np.concatenate([us[k][:nt], np.clip(tau, -self._tau_max, self._tau_max)]))
-        blocks = [np.concatenate([hs[k], Us[k], (hs[k + 1][nv:] - hs[k][nv:]) / s.dt, Fs[k]])
-                  for k in range(s.horizon)]
+        blocks = [np.concatenate([hs[k], Us[k], (hs[k + 1][nv:] - hs[k][nv:]) / s.dt, Fs[k]]) for k in range(s.horizon)]
         return np.concatenate([*blocks, hs[-1]])
 
     def unpack(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         N, nz, ns, nu = self.settings.horizon, self.nz, self.ns, self.nu
-        return (np.array([w[k * nz:k * nz + ns] for k in range(N + 1)]),
-                np.array([w[k * nz + ns:k * nz + ns + nu] for k in range(N)]),
-                np.array([w[(k + 1) * nz - 3:(k + 1) * nz] for k in range(N)]))
+        return (
+            np.array([w[k * nz : k * nz + ns] for k in range(N + 1)]),
+            np.array([w[k * nz + ns : k * nz + ns + nu] for k in range(N)]),
+            np.array([w[(k + 1) * nz - 3 : (k + 1) * nz] for k in range(N)]),
+        )
 
-    def solve(self, h0: np.ndarray, guess: np.ndarray, current: np.ndarray | None = None,
-              duals: tuple[np.ndarray, np.ndarray] | None = None) -> ModeIIISolution:
+    def solve(
+        self,
+        h0: np.ndarray,
+        guess: np.ndarray,
+        current: np.ndarray | None = None,
+        duals: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> ModeIIISolution:
         lbw, ubw = self.bounds()
         P = np.concatenate([h0, np.zeros(3) if current is None else current, self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
@@ -223,5 +276,15 @@ class ModeIIIOCP:
         st = self.solver.stats()
         w = np.asarray(r["x"]).ravel()
         hs, us, Fs = self.unpack(w)
-        return ModeIIISolution(ipopt_status(st), hs, us, Fs, elapsed, int(st["iter_count"]), float(r["f"]), w,
-                               np.asarray(r["lam_g"]).ravel(), np.asarray(r["lam_x"]).ravel())
+        return ModeIIISolution(
+            ipopt_status(st),
+            hs,
+            us,
+            Fs,
+            elapsed,
+            int(st["iter_count"]),
+            float(r["f"]),
+            w,
+            np.asarray(r["lam_g"]).ravel(),
+            np.asarray(r["lam_x"]).ravel(),
+        )

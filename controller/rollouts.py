@@ -35,6 +35,12 @@ class BrakingPolicy:
         self._thrust_limit = np.array([t.force_range for t in p.thrusters])
         self._lo, self._hi = p.input_bounds()
 
+    def limit_thrust(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Replace the input bounds (thrusters first; e.g. known-failed thrusters: both 0)."""
+        nt = self.model.params.n_thrusters
+        self._thrust_limit = np.column_stack([lo[:nt], hi[:nt]])
+        self._lo, self._hi = np.asarray(lo, float), np.asarray(hi, float)
+
     def __call__(self, h: np.ndarray, posture: np.ndarray, current: np.ndarray | None = None) -> np.ndarray:
         model, n, nt = self.model, self.model.n_joints, self.model.params.n_thrusters
         vc = np.zeros(3) if current is None else current

@@ -1,0 +1,264 @@
+"""The switching NMPC (paper Sec. IV, Algorithms 1-3 and the Final Algorithm): one `step` per
+control period.
+
+Mode selection (Algorithm 3): Mode I while the feasibility certificate finds Mode I's feasible set
+non-empty; Mode II once it is empty (the contact plane is the one the braking rollout comes closest
+to); Mode III after the Mode II step taken with N_p = 1 (Algorithm 1); back to Mode I after a Mode
+III step once the hull's closing speed to the contact plane, measured at the start of the next step,
+is above `separation_speed` (0 by default).
+
+Before each solve the previous plan is shifted by one interval and its state trajectory
+recomputed from the measured state with the model's RK4 under the plan's inputs (and dt, and
+contact forces) (paper: Final Algorithm). Mode III's recomputed states are put back on the plane
+by Algorithm 2's inverse kinematics, since a prescribed contact force alone would let the tip
+drift off it.
+
+Solver failures. A solve that does not reach IPOPT's tolerance (or its acceptable level) is not
+used. The fallback, reported in StepInfo.fallback: the previous plan of the same mode shifted by one
+interval (its second input) when there is one; otherwise Mode I brakes at full thrust (the
+certificate's rollout), Mode II brakes while the arm swings towards the wall (its initial guess)
+and Mode III brakes with the arm held rigid, so that a tip on the wall keeps pushing
+(controller.rollouts.BrakingPolicy).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from controller.feasibility import Certificate, FeasibilityTest, Verdict
+from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
+from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
+from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
+from controller.model import UVMSModel
+from controller.rollouts import BrakingPolicy, JointHold
+from uvms.scene import Plane
+
+
+class Mode(Enum):
+    I = "I"  # noqa: E741 (the paper's name)
+    II = "II"
+    III = "III"
+
+
+class Fallback(Enum):
+    NONE = "none"
+    SHIFTED_PLAN = "shifted previous plan"
+    GUESS = "initial guess (Mode I: maximum braking; Mode II: braking while the arm deploys)"
+    HOLD = "maximum braking with the arm held rigid at its posture (Mode III)"
+
+
+@dataclass(frozen=True)
+class SwitchingSettings:
+    mode1: ModeISettings = field(default_factory=ModeISettings)
+    mode2: ModeIISettings = field(default_factory=ModeIISettings)
+    mode3: ModeIIISettings = field(default_factory=ModeIIISettings)
+    feasibility_tolerance: float = 1e-3  # m, summed clearance violation
+    separation_speed: float = 0.0  # m/s: Mode III -> I once the hull's closing speed exceeds this
+    failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
+    current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
+
+
+@dataclass(frozen=True)
+class StepInfo:
+    """What one control step decided and why."""
+
+    t: float  # s
+    mode: Mode
+    status: SolverStatus
+    fallback: Fallback
+    solve_time: float  # s, all solves of this step (certificate included)
+    iterations: int
+    dt: float  # s, the interval the input is meant to be held (Mode II: dt*)
+    horizon: int  # N_p
+    h_pred: np.ndarray  # (N+1, ns) predicted states (re-simulated by RK4 from the plan's inputs)
+    u_pred: np.ndarray  # (N, nu)
+    contact_force: np.ndarray | None  # (N, 3) planned contact force, obstacle frame [N] (Mode III)
+    contact_plane: int | None  # index of the plane of Modes II and III
+    distances: np.ndarray  # (n_planes, n_bodies) m, at the measured state
+    closing_speeds: np.ndarray  # (n_planes, n_bodies) m/s
+    certificate: Certificate | None  # Mode I's feasibility test, when it ran
+
+
+class SwitchingNMPC:
+    """Algorithm 3 over Modes I-III for a model and a set of planes. `reference` is the task: a
+    state h_ref or a function of time t [s] returning one."""
+
+    def __init__(self, model: UVMSModel, planes: Sequence[Plane],
+                 reference: np.ndarray | Callable[[float], np.ndarray],
+                 settings: SwitchingSettings = SwitchingSettings()):
+        self.model, self.planes, self.settings = model, tuple(planes), settings
+        if callable(reference):
+            self.reference = reference
+        else:
+            fixed = np.asarray(reference, float)
+            self.reference = lambda t: fixed
+        self.current = np.asarray(settings.current, float)
+        self.lo, self.hi = model.params.input_bounds()
+        for i in settings.failed_thrusters:
+            self.lo[i] = self.hi[i] = 0.0
+        self.mode1 = ModeIOCP(model, planes, settings.mode1)
+        self.mode1.limit_inputs(self.lo, self.hi)
+        self.feasibility = FeasibilityTest(model, planes, settings.mode1, settings.feasibility_tolerance)
+        self.feasibility.problem.limit_inputs(self.lo, self.hi)
+        self.feasibility.braking.limit_thrust(self.lo, self.hi)
+        self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))
+        self._hold.limit_thrust(self.lo, self.hi)
+        self._mode2: dict[int, ModeIIOCP] = {}
+        self._mode3: dict[int, ModeIIIOCP] = {}
+        self.mode = Mode.I
+        self.contact: int | None = None
+        self._plan: OCPSolution | ModeIISolution | ModeIIISolution | None = None
+        self._horizon2 = settings.mode2.horizon
+        self._last_u = np.zeros(model.n_inputs)
+        self._reported_mode = Mode.I
+
+    # ------------------------------------------------------------------------------------------
+    def ocp2(self, plane: int) -> ModeIIOCP:
+        if plane not in self._mode2:
+            ocp = ModeIIOCP(self.model, self.planes, plane, self.settings.mode2)
+            ocp.limit_inputs(self.lo, self.hi)
+            self._mode2[plane] = ocp
+        return self._mode2[plane]
+
+    def ocp3(self, plane: int) -> ModeIIIOCP:
+        if plane not in self._mode3:
+            ocp = ModeIIIOCP(self.model, self.planes, plane, self.settings.mode3)
+            ocp.limit_inputs(self.lo, self.hi)
+            self._mode3[plane] = ocp
+        return self._mode3[plane]
+
+    def _geometry(self, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        d = [np.asarray(self.model.distances(h, pl.normal, pl.offset)).ravel() for pl in self.planes]
+        dd = [np.asarray(self.model.closing_speeds(h, pl.normal, pl.offset)).ravel() for pl in self.planes]
+        return np.array(d), np.array(dd)
+
+    def _closest_plane(self, h: np.ndarray) -> int:
+        """The plane the braking rollout comes closest to (smallest body clearance over the horizon)."""
+        hs, _ = self.feasibility.braking_rollout(h, self.current)
+        worst = [min(float(np.min(np.asarray(self.model.distances(x, pl.normal, pl.offset)))) for x in hs)
+                 for pl in self.planes]
+        return int(np.argmin(worst))
+
+    def _resimulate(self, h0: np.ndarray, us: np.ndarray, dt: float, forces: np.ndarray | None = None,
+                    ocp3: ModeIIIOCP | None = None) -> np.ndarray:
+        """The Final Algorithm's state trajectory of the inputs (RK4, 4 substeps per interval)."""
+        hs = [np.asarray(h0, float)]
+        for k, uk in enumerate(us):
+            h = hs[-1]
+            for _ in range(4):
+                if forces is None:
+                    h = self.model.step(h, uk, dt / 4, vc=self.current)
+                else:
+                    h = self.model.step(h, uk, dt / 4, Fw=np.concatenate([forces[k], np.zeros(3)]), Rw=ocp3.Rw,
+                                        vc=self.current)
+            if ocp3 is not None:
+                h[6:6 + self.model.n_joints] = ocp3.onto_plane(h)
+            hs.append(h)
+        return np.array(hs)
+
+    # ------------------------------------------------------------------------------------------
+    def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, StepInfo]:
+        """The input u (thruster forces N, joint torques N m) to hold for info.dt seconds."""
+        h = np.asarray(h, float)
+        if h.shape != (self.model.n_states,) or not np.all(np.isfinite(h)):
+            raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
+                             f"{self.model.n_states} finite numbers")
+        distances, closing = self._geometry(h)
+        if (self.mode is Mode.III and self._reported_mode is Mode.III
+                and closing[self.contact, 0] > self.settings.separation_speed):
+            self.mode, self._plan = Mode.I, None
+        t0 = time.perf_counter()
+        if self.mode is Mode.I:
+            out = self._step_mode1(h, t)
+        elif self.mode is Mode.II:
+            out = self._step_mode2(h)
+        else:
+            out = self._step_mode3(h)
+        u, status, fallback, iterations, dt, N, hp, up, F, cert = out
+        self._last_u = np.clip(u, self.lo, self.hi)
+        info = StepInfo(t=t, mode=self._reported_mode, status=status, fallback=fallback,
+                        solve_time=time.perf_counter() - t0, iterations=iterations, dt=dt, horizon=N, h_pred=hp,
+                        u_pred=up, contact_force=F, contact_plane=self.contact, distances=distances,
+                        closing_speeds=closing, certificate=cert)
+        return self._last_u, info
+
+    def _step_mode1(self, h: np.ndarray, t: float):
+        s, ocp = self.settings.mode1, self.mode1
+        ref = np.asarray(self.reference(t), float)
+        cert = self.feasibility(h, ref, self.current)
+        if cert.verdict is Verdict.INFEASIBLE:
+            self.contact = self._closest_plane(h)
+            self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
+            return self._step_mode2(h, cert)
+        self._reported_mode = Mode.I
+        previous = self._plan if isinstance(self._plan, OCPSolution) else None
+        guess = None
+        if previous is not None:
+            us = np.vstack([previous.u[1:], previous.u[-1:]])
+            guess = ocp.guess_from_rollout(self._resimulate(h, us, s.dt), us)
+        elif cert.solution is not None:
+            guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)
+        sol = ocp.solve(h, ref, self.current, previous=previous, guess=guess)
+        if sol.status is SolverStatus.SUCCESS:
+            self._plan = sol
+            return (sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
+                    self._resimulate(h, sol.u, s.dt), sol.u, None, cert)
+        if previous is not None:
+            self._plan = None
+            return (previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
+                    previous.h, previous.u, None, cert)
+        hs, us = self.feasibility.braking_rollout(h, self.current)
+        return us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, None, cert
+
+    def _step_mode2(self, h: np.ndarray, cert: Certificate | None = None):
+        self._reported_mode = Mode.II
+        s, ocp, N = self.settings.mode2, self.ocp2(self.contact), self._horizon2
+        previous = self._plan if isinstance(self._plan, ModeIISolution) else None
+        if previous is not None:
+            us, dt = shifted_guess(previous, N)
+            guess = (self._resimulate(h, us, dt), us, dt)
+        else:
+            guess = ocp.deploy_guess(h, N, self.current)
+            N = len(guess[1])
+        sol = ocp.solve(h, guess, self.current)
+        iters = sol.iterations
+        if sol.status is SolverStatus.SUCCESS:
+            u, dt, fallback, hp, up = sol.u[0], sol.dt, Fallback.NONE, self._resimulate(h, sol.u, sol.dt), sol.u
+            self._plan = sol
+        else:
+            hp, up, dt = guess
+            u, fallback = up[0], Fallback.SHIFTED_PLAN if previous is not None else Fallback.GUESS
+            self._plan = ModeIISolution(sol.status, hp, up, dt, sol.solve_time, iters, np.nan, sol.w)
+        # Algorithm 1
+        if N > 1:
+            self._horizon2 = min(N - 1, next_horizon(N, dt, s.dt_nominal))
+        else:
+            self.mode, self._plan = Mode.III, None
+        return u, sol.status, fallback, iters, dt, N, hp, up, None, cert
+
+    def _step_mode3(self, h: np.ndarray):
+        self._reported_mode = Mode.III
+        s, ocp = self.settings.mode3, self.ocp3(self.contact)
+        previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
+        if previous is not None:
+            us = np.vstack([previous.u[1:], previous.u[-1:]])
+            Fs = np.vstack([previous.force[1:], previous.force[-1:]])
+            guess = ocp.contact_guess(h, us, Fs, self.current)
+        else:
+            guess = ocp.contact_guess(h, np.repeat(self._last_u[None], s.horizon, 0), None, self.current)
+        sol = ocp.solve(h, guess, self.current)
+        if sol.status is SolverStatus.SUCCESS:
+            self._plan = sol
+            return (sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
+                    self._resimulate(h, sol.u, s.dt, sol.force, ocp), sol.u, sol.force, None)
+        self._plan = None
+        if previous is not None:
+            return (previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon, previous.h,
+                    previous.u, previous.force, None)
+        u = self._hold(h, h[6:6 + self.model.n_joints], self.current)
+        return u, sol.status, Fallback.HOLD, sol.iterations, s.dt, s.horizon, h[None], u[None], None, None

@@ -1,0 +1,129 @@
+"""The switching NMPC in closed loop on the paper's model itself (issue 4's evidence; the MuJoCo
+closed loop is issue 5): wall approaches, the input held over each step's dt (Mode II's dt*), the
+plant validation.model_plant.ModelPlant (the model's RK4 at 2 ms with a penalty tip contact).
+
+`python -m validation.kane_closed_loop [NAME ...]` runs the scenarios, prints a table and writes
+bench/results/kane_closed_loop.md.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from controller.model import UVMSModel
+from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings
+from uvms import load_params, load_scene
+from validation.model_plant import ModelPlant
+
+OUT = Path(__file__).resolve().parent.parent / "bench" / "results"
+
+
+@dataclass(frozen=True)
+class Approach:
+    """Hull front `gap` m from the wall x = 2, moving at `speed` m/s along +x, arm stowed; task:
+    hold the start pose 1 m back from the wall at rest."""
+
+    name: str
+    gap: float  # m
+    speed: float  # m/s
+    duration: float  # s
+    failed_thrusters: tuple[int, ...] = ()  # known to the controller and applied in the plant
+    current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, known to the controller
+
+
+SCENARIOS = {
+    "avoidable": Approach("avoidable", gap=1.0, speed=0.3, duration=3.0),
+    "thrusters-dead-current": Approach("thrusters-dead-current", gap=0.6, speed=0.3, duration=5.0,
+                                       failed_thrusters=tuple(range(8)), current=(0.15, 0.0, 0.0)),
+    "above-braking-limit": Approach("above-braking-limit", gap=0.12, speed=0.5, duration=2.0),
+}
+
+
+@dataclass(frozen=True)
+class Run:
+    scenario: Approach
+    infos: list[StepInfo] = field(repr=False)
+    times: np.ndarray  # s, start of each step
+    hull_distance: np.ndarray  # m, smallest hull-to-wall distance during each step
+    tip_force_peak: np.ndarray  # N, per step
+    tip_force: np.ndarray  # (steps, 3) N, world, mean per step
+    tip_velocity: np.ndarray  # (steps, 3) m/s, world, at the end of each step
+
+    @property
+    def modes(self) -> list[Mode]:
+        """The mode sequence with repeats removed."""
+        seq = [i.mode for i in self.infos]
+        return [m for k, m in enumerate(seq) if k == 0 or seq[k - 1] is not m]
+
+
+def initial_state(params, gap: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
+    n = params.n_joints
+    h = np.zeros(params.n_states)
+    h[0] = 2.0 - params.hull.superellipsoid.semi_axes[0] - gap
+    h[6:6 + n], h[6 + n] = params.arm.stowed, speed
+    ref = h.copy()
+    ref[0], ref[6 + n] = 1.0 - params.hull.superellipsoid.semi_axes[0], 0.0
+    return h, ref
+
+
+def run(scenario: Approach, settings: SwitchingSettings | None = None) -> Run:
+    params, scene = load_params(), load_scene()
+    model = UVMSModel(params, scene.water)
+    base = settings or SwitchingSettings()
+    settings = SwitchingSettings(mode1=base.mode1, mode2=base.mode2, mode3=base.mode3,
+                                 feasibility_tolerance=base.feasibility_tolerance,
+                                 separation_speed=base.separation_speed,
+                                 failed_thrusters=scenario.failed_thrusters, current=scenario.current)
+    h, ref = initial_state(params, scenario.gap, scenario.speed)
+    walls = [i for i, pl in enumerate(scene.planes) if pl.name == "wall"]
+    ctl = SwitchingNMPC(model, scene.planes, ref, settings)
+    plant = ModelPlant(model, scene.planes, h, failed_thrusters=scenario.failed_thrusters,
+                       current=np.asarray(scenario.current))
+    infos, times, dist, peak, force, vel = [], [], [], [], [], []
+    t = 0.0
+    while t < scenario.duration - 1e-9:
+        u, info = ctl.step(plant.h, t)
+        report = plant.step(u, info.dt)
+        infos.append(info)
+        times.append(t)
+        dist.append(float(report.min_distance[walls[0], 0]))
+        peak.append(report.tip_force_peak)
+        force.append(report.tip_force_mean)
+        vel.append(report.tip_velocity)
+        t += info.dt
+    return Run(scenario, infos, np.array(times), np.array(dist), np.array(peak), np.array(force), np.array(vel))
+
+
+def summary_row(r: Run) -> str:
+    modes = " > ".join(m.value for m in r.modes)
+    fallbacks = Counter(i.fallback for i in r.infos if i.fallback is not Fallback.NONE)
+    per_mode = []
+    for m in Mode:
+        ts = [i.solve_time for i in r.infos if i.mode is m]
+        if ts:
+            per_mode.append(f"{m.value}: {1e3 * np.median(ts):.0f}/{1e3 * np.percentile(ts, 95):.0f}")
+    return (f"| {r.scenario.name} | {modes} | {r.hull_distance.min():.3f} | {r.tip_force_peak.max():.0f} | "
+            f"{len(r.infos)} | {sum(fallbacks.values())} | {', '.join(per_mode)} |")
+
+
+def main(names: list[str]) -> None:
+    rows = ["| scenario | modes | min hull distance [m] | peak tip force [N] | steps | fallbacks | "
+            "step time median/p95 [ms] per mode |", "|---|---|---|---|---|---|---|"]
+    for name in names or list(SCENARIOS):
+        r = run(SCENARIOS[name])
+        rows.append(summary_row(r))
+        print(rows[-1], flush=True)
+    text = ("# Switching NMPC in closed loop on the Kane model\n\n`python -m validation.kane_closed_loop`\n\n"
+            + "\n".join(rows) + "\n")
+    OUT.mkdir(parents=True, exist_ok=True)
+    (OUT / "kane_closed_loop.md").write_text(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
