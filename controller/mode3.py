@@ -155,6 +155,10 @@ class ModeIIIOCP:
         hq = ca.vertcat(ca.SX.sym("pose", 6), q)
         gap = tip_gap(model, ca.vertcat(hq, ca.SX.zeros(nv)), plane)
         self._gap_q = ca.Function("gap_q", [hq], [gap, ca.jacobian(gap, q)])
+        pose, q0 = hq[:6], ca.SX.sym("q0", n)
+        self._ik = ca.nlpsol("wall_ik", "ipopt", {"x": q, "p": ca.vertcat(pose, q0), "f": ca.sumsqr(q - q0), "g": gap},
+                             {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 50,
+                                                             "tol": 1e-10}})
 
     def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
@@ -174,16 +178,12 @@ class ModeIIIOCP:
 
     # ------------------------------------------------------------------------------------------
     def onto_plane(self, h: np.ndarray) -> np.ndarray:
-        """Eq. Wall_InvKin: the joint angles nearest to h's that put the tip on the plane, by
-        minimum-norm Newton steps on the contact constraint (5 iterations, joint limits clipped)."""
+        """Eq. Wall_InvKin: the joint angles nearest to h's (joint limits kept) that put the tip on
+        the plane, for h's hull pose (IPOPT on the 4-variable problem; h's angles if it fails)."""
         n = self.model.n_joints
-        x = np.array(h[: 6 + n], float)
-        for _ in range(5):
-            g, J = (np.asarray(v, float).ravel() for v in self._gap_q(x))
-            if abs(g[0]) < 1e-6 or J @ J < 1e-12:
-                break
-            x[6:] = np.clip(x[6:] - J * g[0] / (J @ J), self._q_lo, self._q_hi)
-        return x[6:]
+        q0 = np.clip(h[6:6 + n], self._q_lo, self._q_hi)
+        r = self._ik(x0=q0, p=np.concatenate([h[:6], h[6:6 + n]]), lbx=self._q_lo, ubx=self._q_hi, lbg=0.0, ubg=0.0)
+        return np.asarray(r["x"]).ravel() if self._ik.stats()["success"] else h[6:6 + n].copy()
 
     def pushing_force(self, h: np.ndarray) -> float:
         """Eq. Fc_Init_OptProblem: the largest normal force [N] the joints can hold statically,

@@ -98,24 +98,31 @@ class SwitchingNMPC:
             fixed = np.asarray(reference, float)
             self.reference = lambda t: fixed
         self.current = np.asarray(settings.current, float)
-        self.lo, self.hi = model.params.input_bounds()
-        for i in settings.failed_thrusters:
-            self.lo[i] = self.hi[i] = 0.0
         self.mode1 = ModeIOCP(model, planes, settings.mode1)
-        self.mode1.limit_inputs(self.lo, self.hi)
         self.feasibility = FeasibilityTest(model, planes, settings.mode1, settings.feasibility_tolerance)
-        self.feasibility.problem.limit_inputs(self.lo, self.hi)
-        self.feasibility.braking.limit_thrust(self.lo, self.hi)
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))
-        self._hold.limit_thrust(self.lo, self.hi)
         self._mode2: dict[int, ModeIIOCP] = {}
         self._mode3: dict[int, ModeIIIOCP] = {}
+        self.set_failed_thrusters(settings.failed_thrusters)
         self.mode = Mode.I
         self.contact: int | None = None
         self._plan: OCPSolution | ModeIISolution | ModeIIISolution | None = None
         self._horizon2 = settings.mode2.horizon
         self._last_u = np.zeros(model.n_inputs)
         self._reported_mode = Mode.I
+
+    def set_failed_thrusters(self, failed: Sequence[int]) -> None:
+        """Thrusters known to be dead from now on (input bounds 0 in every mode and fallback)."""
+        nt = self.model.params.n_thrusters
+        if any(not 0 <= i < nt for i in failed):
+            raise ValueError(f"failed thrusters {list(failed)}; allowed: indices 0..{nt - 1}")
+        self.lo, self.hi = self.model.params.input_bounds()
+        self.lo[list(failed)] = self.hi[list(failed)] = 0.0
+        for ocp in (self.mode1, self.feasibility.problem, *self._mode2.values(), *self._mode3.values()):
+            ocp.limit_inputs(self.lo, self.hi)
+        for policy in (self.feasibility.braking, self._hold):
+            policy.limit_thrust(self.lo, self.hi)
+        self._plan = None
 
     # ------------------------------------------------------------------------------------------
     def ocp2(self, plane: int) -> ModeIIOCP:

@@ -26,7 +26,8 @@ OUT = Path(__file__).resolve().parent.parent / "bench" / "results"
 @dataclass(frozen=True)
 class Approach:
     """Hull front `gap` m from the wall x = 2, moving at `speed` m/s along +x, arm stowed; task:
-    hold the start pose 1 m back from the wall at rest."""
+    rest with the hull front `target_gap` m from the wall. The `failed_thrusters` die at `fail_at`
+    seconds, and the controller is told at once."""
 
     name: str
     gap: float  # m
@@ -34,13 +35,15 @@ class Approach:
     duration: float  # s
     failed_thrusters: tuple[int, ...] = ()  # known to the controller and applied in the plant
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, known to the controller
+    target_gap: float = 1.0  # m
+    fail_at: float = 0.0  # s
 
 
 SCENARIOS = {
     "avoidable": Approach("avoidable", gap=1.0, speed=0.3, duration=3.0),
     "thrusters-dead-current": Approach("thrusters-dead-current", gap=0.6, speed=0.3, duration=5.0,
                                        failed_thrusters=tuple(range(8)), current=(0.15, 0.0, 0.0)),
-    "above-braking-limit": Approach("above-braking-limit", gap=0.12, speed=0.5, duration=2.0),
+    "thrusters-dead": Approach("thrusters-dead", gap=0.38, speed=0.7, duration=3.0, failed_thrusters=tuple(range(8))),
 }
 
 
@@ -61,13 +64,14 @@ class Run:
         return [m for k, m in enumerate(seq) if k == 0 or seq[k - 1] is not m]
 
 
-def initial_state(params, gap: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
+def initial_state(params, gap: float, speed: float, target_gap: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     n = params.n_joints
     h = np.zeros(params.n_states)
-    h[0] = 2.0 - params.hull.superellipsoid.semi_axes[0] - gap
+    front = params.hull.superellipsoid.semi_axes[0]
+    h[0] = 2.0 - front - gap
     h[6:6 + n], h[6 + n] = params.arm.stowed, speed
     ref = h.copy()
-    ref[0], ref[6 + n] = 1.0 - params.hull.superellipsoid.semi_axes[0], 0.0
+    ref[0], ref[6 + n] = 2.0 - front - target_gap, 0.0
     return h, ref
 
 
@@ -78,15 +82,18 @@ def run(scenario: Approach, settings: SwitchingSettings | None = None) -> Run:
     settings = SwitchingSettings(mode1=base.mode1, mode2=base.mode2, mode3=base.mode3,
                                  feasibility_tolerance=base.feasibility_tolerance,
                                  separation_speed=base.separation_speed,
-                                 failed_thrusters=scenario.failed_thrusters, current=scenario.current)
-    h, ref = initial_state(params, scenario.gap, scenario.speed)
+                                 current=scenario.current)
+    h, ref = initial_state(params, scenario.gap, scenario.speed, scenario.target_gap)
     walls = [i for i, pl in enumerate(scene.planes) if pl.name == "wall"]
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
-    plant = ModelPlant(model, scene.planes, h, failed_thrusters=scenario.failed_thrusters,
-                       current=np.asarray(scenario.current))
+    plant = ModelPlant(model, scene.planes, h, current=np.asarray(scenario.current))
     infos, times, dist, peak, force, vel = [], [], [], [], [], []
     t = 0.0
+    failed = False
     while t < scenario.duration - 1e-9:
+        if not failed and t >= scenario.fail_at - 1e-9:
+            ctl.set_failed_thrusters(scenario.failed_thrusters)
+            plant.failed, failed = list(scenario.failed_thrusters), True
         u, info = ctl.step(plant.h, t)
         report = plant.step(u, info.dt)
         infos.append(info)

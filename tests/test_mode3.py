@@ -1,0 +1,92 @@
+"""Mode III (paper Sec. IV-C): Algorithm 2's pieces against closed forms, and one solve checked for
+contact, the friction law and its effect on the hull against a coasting rollout of the model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from controller.mode1 import SolverStatus
+from controller.mode3 import ModeIIIOCP, ModeIIISettings
+from controller.model import UVMSModel
+from controller.rollouts import ReachPosture
+from controller.transcription import tip_gap
+from validation.kane_closed_loop import initial_state
+
+
+@pytest.fixture(scope="module")
+def contact_case(params, scene):
+    """Thrusters dead, hull 0.35 m from the wall approaching at 0.3 m/s, tip on the wall."""
+    model = UVMSModel(params, scene.water)
+    ocp = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings())
+    lo, hi = params.input_bounds()
+    lo[:8] = hi[:8] = 0.0
+    ocp.limit_inputs(lo, hi)
+    h, _ = initial_state(params, 0.35, 0.3)
+    n = params.n_joints
+    h[6:6 + n] = ReachPosture(model, scene.planes[0])(h)
+    h[6:6 + n] = ocp.onto_plane(h)
+    return model, ocp, h
+
+
+def test_wall_inverse_kinematics_is_the_nearest_posture_on_the_plane(contact_case, scene) -> None:
+    """Eq. Wall_InvKin from a posture 5 cm off the plane: the result puts the tip on the plane
+    (1e-6 m), and the change in q is parallel to the constraint's gradient (the first-order
+    optimality condition of min |q - q0|^2 s.t. gap(q) = 0; 1e-3 of |dq| off the gradient, the
+    curvature of the gap over a 5 cm move)."""
+    model, ocp, h = contact_case
+    n = model.n_joints
+    h0 = h.copy()
+    h0[0] -= 0.05
+    q = ocp.onto_plane(h0)
+    h1 = h0.copy()
+    h1[6:6 + n] = q
+    assert abs(float(tip_gap(model, h1, scene.planes[0]))) < 1e-6
+    _, J = ocp._gap_q(np.concatenate([h1[:6], q]))
+    g = np.asarray(J).ravel()
+    dq = q - h0[6:6 + n]
+    off = dq - g * (g @ dq) / (g @ g)
+    assert np.linalg.norm(off) < 1e-3 * np.linalg.norm(dq)
+
+
+def test_pushing_force_saturates_a_joint(contact_case, params) -> None:
+    """Eq. Fc_Init_OptProblem: at the returned normal force the static joint torques J_m^T n F_n
+    reach the torque limit at one joint and stay within it at every joint (or the jaws' force
+    limit binds)."""
+    model, ocp, h = contact_case
+    F = ocp.pushing_force(h)
+    Jm = np.asarray(model.jacobian_ee(h))[:3, 6:]
+    tau = np.abs(Jm.T @ ocp.Rw[:, 0]) * F
+    limits = params.input_bounds()[1][params.n_thrusters:]
+    assert np.all(tau <= limits * (1 + 1e-9))
+    assert np.max(tau / limits) == pytest.approx(1.0) or F == pytest.approx(params.arm.tip_force_limit)
+
+
+@pytest.mark.slow
+def test_plan_keeps_contact_obeys_friction_and_slows_the_hull(contact_case, params, scene) -> None:
+    """From Algorithm 2's guess the Mode III solve converges; the plan keeps the tip on the wall at
+    every node (1e-5 m, IPOPT's acceptable constraint level), F_n >= 0, |F_t| <= mu F_n (1e-6 N),
+    and F_t opposes the tip's sliding velocity, measured independently by finite differences of the
+    planned tip positions (only where it slides faster than 1 mm/s). Physics: after 1 s the hull
+    approaches the wall slower than the same model coasting with the arm held (no contact) - by at
+    least 0.1 m/s."""
+    model, ocp, h = contact_case
+    s = ocp.settings
+    guess = ocp.contact_guess(h, np.zeros((s.horizon, model.n_inputs)), None)
+    sol = ocp.solve(h, guess)
+    assert sol.status is SolverStatus.SUCCESS
+    wall = scene.planes[0]
+    assert max(abs(float(tip_gap(model, x, wall))) for x in sol.h[1:]) < 1e-5
+    Fn, Ft = sol.force[:, 0], sol.force[:, 1:]
+    assert np.all(Fn >= -1e-8)
+    assert np.all(np.linalg.norm(Ft, axis=1) <= s.friction * Fn + 1e-6)
+    tips = np.array([np.asarray(model.ee_pose(x)[0]).ravel() for x in sol.h])
+    v_t = (np.diff(tips, axis=0) / s.dt) @ ocp.Rw[:, 1:]
+    sliding = np.linalg.norm(v_t, axis=1) > 1e-3
+    assert np.all(np.einsum("ij,ij->i", Ft[sliding], v_t[sliding]) <= 1e-9)
+    coast = h.copy()
+    for _ in range(100):
+        coast = model.step(coast, np.zeros(model.n_inputs), s.dt * s.horizon / 100)
+    d_dot = [float(np.asarray(model.closing_speeds(x, wall.normal, wall.offset)).ravel()[0])
+             for x in (sol.h[-1], coast)]
+    assert d_dot[0] > d_dot[1] + 0.1

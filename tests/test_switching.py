@@ -1,0 +1,74 @@
+"""The switching NMPC (Algorithm 3): its input checks, its fallback on a solver failure, and the
+closed loop on the Kane model with a penalty tip contact (validation.kane_closed_loop)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from controller.mode1 import ModeISettings, SolverStatus
+from controller.model import UVMSModel
+from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
+from validation.kane_closed_loop import SCENARIOS, initial_state, run
+
+
+def test_bad_state_is_rejected_in_one_line(params, scene) -> None:
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, 1.0, 0.0)
+    ctl = SwitchingNMPC(model, scene.planes, ref)
+    bad = h.copy()
+    bad[0] = np.nan
+    for x in (bad, h[:-1]):
+        with pytest.raises(ValueError, match="allowed") as err:
+            ctl.step(x, 0.0)
+        assert "\n" not in str(err.value)
+
+
+def test_solver_failure_falls_back_to_braking_within_bounds(params, scene) -> None:
+    """Mode I capped at 1 IPOPT iteration fails on an approach at 0.3 m/s; the step reports the
+    failure and the fallback and returns maximum braking (the certificate's rollout input): finite,
+    within the input bounds, with surge thrust against the motion."""
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, 1.0, 0.3)
+    settings = SwitchingSettings(mode1=ModeISettings(max_iter=1))
+    ctl = SwitchingNMPC(model, scene.planes, ref, settings)
+    u, info = ctl.step(h, 0.0)
+    assert info.mode is Mode.I and info.status is SolverStatus.MAX_ITER and info.fallback is Fallback.GUESS
+    lo, hi = params.input_bounds()
+    assert np.all(np.isfinite(u)) and np.all(u >= lo) and np.all(u <= hi)
+    surge = (params.allocation_matrix() @ u[:params.n_thrusters])[0]
+    assert surge < -10.0  # N, braking
+
+
+@pytest.mark.slow
+def test_avoidable_approach_stays_in_mode_one(params) -> None:
+    """0.3 m/s towards the wall 1 m ahead, thrusters working: Mode I throughout, the hull never
+    closer than 0.9 m (it brakes within 0.1 m)."""
+    r = run(replace(SCENARIOS["avoidable"], duration=1.5))
+    assert r.modes == [Mode.I]
+    assert r.hull_distance.min() > 0.9
+
+
+@pytest.mark.slow
+def test_thruster_failure_approach_switches_through_all_modes(params) -> None:
+    """Every thruster dead, 0.7 m/s towards the wall 0.38 m ahead (drag alone cannot stop it in
+    time), arm stowed. Modes I -> II -> III -> I in that order; the tip touches the wall (a tip
+    contact force appears) only after Mode II began; the hull stays off the wall throughout
+    (distance > 0 at every 2 ms plant step); in Mode III the hull's closing speed is brought to
+    >= 0 (the switch back to Mode I requires it); every planned contact force obeys
+    |F_t| <= mu F_n (1e-6 N)."""
+    r = run(replace(SCENARIOS["thrusters-dead"], duration=1.0))
+    assert r.modes[:4] == [Mode.I, Mode.II, Mode.III, Mode.I]
+    modes = [i.mode for i in r.infos]
+    first_contact = int(np.argmax(r.tip_force_peak > 0))
+    assert r.tip_force_peak.max() > 0 and first_contact > modes.index(Mode.II)
+    assert r.hull_distance.min() > 0
+    back = next(k for k in range(1, len(modes)) if modes[k - 1] is Mode.III and modes[k] is Mode.I)
+    assert r.infos[back].closing_speeds[r.infos[back].contact_plane, 0] > 0
+    mu = SwitchingSettings().mode3.friction
+    for i in r.infos:
+        if i.mode is Mode.III and i.contact_force is not None:
+            F = i.contact_force
+            assert np.all(np.linalg.norm(F[:, 1:], axis=1) <= mu * F[:, 0] + 1e-6)
