@@ -23,8 +23,10 @@ test: $(VENV)/.installed
 	$(PY) -m pytest -q
 
 bench: $(VENV)/.installed
+	$(PY) -m pip install --quiet -e '.[test,bench]'
 	$(PY) bench/plant_speed.py
 	$(PY) bench/model_eval.py
+	$(PY) bench/nmpc_modes.py
 
 assets: $(VENV)/.installed
 	$(PY) -m uvms_mj.export

@@ -71,7 +71,8 @@ class StepInfo:
     mode: Mode
     status: SolverStatus
     fallback: Fallback
-    solve_time: float  # s, all solves of this step (certificate included)
+    solve_time: float  # s, the whole step: certificate, guesses, solve, re-simulation
+    ocp_time: float  # s, the mode's OCP solve alone (IPOPT)
     iterations: int
     dt: float  # s, the interval the input is meant to be held (Mode II: dt*)
     horizon: int  # N_p
@@ -189,9 +190,9 @@ class SwitchingNMPC:
         u, status, fallback, iterations, dt, N, hp, up, F, cert = out
         self._last_u = np.clip(u, self.lo, self.hi)
         info = StepInfo(t=t, mode=self._reported_mode, status=status, fallback=fallback,
-                        solve_time=time.perf_counter() - t0, iterations=iterations, dt=dt, horizon=N, h_pred=hp,
-                        u_pred=up, contact_force=F, contact_plane=self.contact, distances=distances,
-                        closing_speeds=closing, certificate=cert)
+                        solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=iterations, dt=dt,
+                        horizon=N, h_pred=hp, u_pred=up, contact_force=F, contact_plane=self.contact,
+                        distances=distances, closing_speeds=closing, certificate=cert)
         return self._last_u, info
 
     def _step_mode1(self, h: np.ndarray, t: float):
@@ -211,6 +212,7 @@ class SwitchingNMPC:
         elif cert.solution is not None:
             guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)
         sol = ocp.solve(h, ref, self.current, previous=previous, guess=guess)
+        self._ocp_time = sol.solve_time
         if sol.status is SolverStatus.SUCCESS:
             self._plan = sol
             return (sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
@@ -233,6 +235,7 @@ class SwitchingNMPC:
             guess = ocp.deploy_guess(h, N, self.current)
             N = len(guess[1])
         sol = ocp.solve(h, guess, self.current)
+        self._ocp_time = sol.solve_time
         iters = sol.iterations
         if sol.status is SolverStatus.SUCCESS:
             u, dt, fallback, hp, up = sol.u[0], sol.dt, Fallback.NONE, self._resimulate(h, sol.u, sol.dt), sol.u
@@ -259,6 +262,7 @@ class SwitchingNMPC:
         else:
             guess = ocp.contact_guess(h, np.repeat(self._last_u[None], s.horizon, 0), None, self.current)
         sol = ocp.solve(h, guess, self.current)
+        self._ocp_time = sol.solve_time
         if sol.status is SolverStatus.SUCCESS:
             self._plan = sol
             return (sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,

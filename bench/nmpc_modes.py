@@ -1,0 +1,183 @@
+"""Solve times of the switching NMPC per mode, with Mode I side by side against two baselines
+(issue 4's benchmark). Run: `python bench/nmpc_modes.py` (needs the `bench` extra: do-mpc);
+writes bench/results/nmpc_modes.json and .md.
+
+Mode I: the avoidable approach of tests/test_mode1.py (0.3 m/s towards the wall, target out of
+reach), 60 control periods of 0.1 s on the model itself as the plant (RK4, 10 ms), N = 20,
+dt = 0.1 s, default vehicle (4-joint arm). Variants in one run:
+  - ours: per-stage derivatives compiled to C, warm-started from the shifted previous solution and
+    its multipliers (controller.mode1);
+  - (a) the same NLP expanded into one SX graph, CasADi's own derivatives, IPOPT from a cold start
+    (h0 held, no multipliers, IPOPT's default barrier start), no code generation;
+  - (b) do-mpc 5.1.2 on the same model, horizon and constraint stages: the model as a DAE
+    (h_dot = [eta_dot(h); a], 0 = M(q) a - Q(h, u)), one Gauss-Legendre collocation point per
+    interval (the implicit midpoint rule, as ours), the same tracking cost and input weight, bounds,
+    and the clearances as nonlinear constraints at the intervals' ends; its own warm start (the
+    previous solution) with IPOPT's warm-start options.
+Modes II and III: every step of the thrusters-dead approach of validation.kane_closed_loop (the
+OCP solve alone, and the whole step with certificate, guesses and re-simulation).
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import time
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from controller.mode1 import ModeIOCP, ModeISettings, _default_state_weights
+from controller.model import UVMSModel
+from controller.switching import Mode
+from controller.transcription import clearances
+from uvms import load_params, load_scene
+from validation.kane_closed_loop import SCENARIOS, run
+
+OUT = Path(__file__).parent / "results"
+STEPS = 60
+
+
+def approach(params) -> tuple[np.ndarray, np.ndarray]:
+    n = params.n_joints
+    h = np.zeros(params.n_states)
+    h[6:6 + n], h[6 + n] = params.arm.home, 0.3
+    ref = np.zeros(params.n_states)
+    ref[0], ref[6:6 + n] = 1.8, params.arm.home
+    return h, ref
+
+
+def stats(times: list[float], iters: list[int], failures: int, build: float) -> dict:
+    t = np.array(times) * 1e3
+    return {"build_s": build, "median_ms": float(np.median(t)), "p95_ms": float(np.percentile(t, 95)),
+            "max_ms": float(t.max()), "median_iterations": float(np.median(iters)), "max_iterations": int(max(iters)),
+            "failures": failures, "solves": len(times)}
+
+
+def closed_loop(solve, model, h, settings) -> tuple[list, list, int]:
+    times, iters, failures = [], [], 0
+    for _ in range(STEPS):
+        u, t, it, ok = solve(h)
+        times.append(t)
+        iters.append(it)
+        failures += not ok
+        for _ in range(10):
+            h = model.step(h, u, settings.dt / 10)
+    return times, iters, failures
+
+
+def ours_and_cold(model, planes, h0, ref) -> dict:
+    rows = {}
+    for name, compiled, warm in (("ours: compiled stage derivatives, warm start", True, True),
+                                 ("(a) CasADi + IPOPT, expanded SX, cold start", False, False)):
+        settings = ModeISettings(compiled=compiled, ipopt_options={} if warm else
+                                 {"warm_start_init_point": "no", "mu_init": 0.1})
+        t0 = time.perf_counter()
+        ocp = ModeIOCP(model, planes, settings)
+        build = time.perf_counter() - t0
+        state = {"previous": None}
+
+        def solve(h, ocp=ocp, warm=warm, state=state):
+            sol = ocp.solve(h, ref, previous=state["previous"] if warm else None)
+            state["previous"] = sol
+            return sol.u[0], sol.solve_time, sol.iterations, sol.status.value == "success"
+
+        rows[name] = stats(*closed_loop(solve, model, h0.copy(), settings), build)
+    return rows
+
+
+def do_mpc_row(model, planes, h0, ref) -> dict:
+    import do_mpc  # the bench extra
+
+    p, s = model.params, ModeISettings()
+    n, ns, nu, nv = model.n_joints, model.n_states, model.n_inputs, model.n_speeds
+    m = do_mpc.model.Model("continuous", "SX")
+    h = m.set_variable("_x", "h", shape=(ns, 1))
+    u = m.set_variable("_u", "u", shape=(nu, 1))
+    a = m.set_variable("_z", "a", shape=(nv, 1))
+    from controller.kinematics import euler_rates, euler_zyx
+    R = euler_zyx(h[3], h[4], h[5])
+    eta_dot = ca.vertcat(R @ h[6 + n:9 + n], euler_rates(h[3:6], h[9 + n:12 + n]), h[12 + n:])
+    m.set_rhs("h", ca.vertcat(eta_dot, a))
+    Q = sum(model.generalized_forces(h, u, ca.DM.zeros(6), ca.DM.eye(3), ca.DM.zeros(3), ca.DM.zeros(3)))
+    m.set_alg("dynamics", model.mass_matrix(h) @ a - Q)
+    m.setup()
+    mpc = do_mpc.controller.MPC(m)
+    mpc.settings.n_horizon, mpc.settings.t_step = s.horizon, s.dt
+    mpc.settings.collocation_type, mpc.settings.collocation_deg, mpc.settings.collocation_ni = "legendre", 1, 1
+    mpc.settings.store_full_solution = False
+    mpc.settings.nlpsol_opts = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
+                                "ipopt.max_iter": s.max_iter, "ipopt.tol": s.tol,
+                                "ipopt.warm_start_init_point": "yes", "ipopt.warm_start_bound_push": 1e-6,
+                                "ipopt.warm_start_mult_bound_push": 1e-6, "ipopt.mu_init": 1e-3}
+    W = ca.DM(_default_state_weights(n))
+    e = m.x["h"] - ca.DM(ref)
+    mpc.set_objective(lterm=ca.dot(W * e, e) + s.input_weight * ca.dot(m.u["u"], m.u["u"]), mterm=ca.dot(W * e, e))
+    lo, hi = p.input_bounds()
+    mpc.bounds["lower", "_u", "u"], mpc.bounds["upper", "_u", "u"] = lo, hi
+    q_lo = np.concatenate([-np.full(6, np.inf), [lk.joint_range[0] for lk in p.arm.links], -np.full(nv, np.inf)])
+    q_hi = np.concatenate([np.full(6, np.inf), [lk.joint_range[1] for lk in p.arm.links], np.full(nv, np.inf)])
+    mpc.bounds["lower", "_x", "h"], mpc.bounds["upper", "_x", "h"] = q_lo, q_hi
+    mpc.set_nl_cons("clearance", -clearances(model, m.x["h"], planes), ub=-s.distance_margin)
+    t0 = time.perf_counter()
+    mpc.setup()
+    build = time.perf_counter() - t0
+    mpc.x0 = h0
+    mpc.set_initial_guess()
+
+    def solve(h):
+        t = time.perf_counter()
+        u = np.asarray(mpc.make_step(h)).ravel()
+        elapsed = time.perf_counter() - t
+        st = mpc.solver_stats
+        return u, elapsed, int(st["iter_count"]), bool(st["success"])
+
+    return stats(*closed_loop(solve, model, h0.copy(), s), build)
+
+
+def modes_two_three() -> dict:
+    r = run(SCENARIOS["thrusters-dead"])
+    rows = {}
+    for mode in Mode:
+        infos = [i for i in r.infos if i.mode is mode]
+        if infos:
+            rows[f"Mode {mode.value}: OCP solve"] = stats([i.ocp_time for i in infos], [i.iterations for i in infos],
+                                                         sum(i.status.value != "success" for i in infos), 0.0)
+            rows[f"Mode {mode.value}: whole step"] = stats([i.solve_time for i in infos],
+                                                          [i.iterations for i in infos], 0, 0.0)
+    return rows
+
+
+def main() -> None:
+    params, scene = load_params(), load_scene()
+    model = UVMSModel(params, scene.water)
+    h0, ref = approach(params)
+    mode1 = ours_and_cold(model, scene.planes, h0, ref)
+    mode1["(b) do-mpc 5.1.2, collocation, warm start"] = do_mpc_row(model, scene.planes, h0, ref)
+    modes = modes_two_three()
+    OUT.mkdir(exist_ok=True)
+    (OUT / "nmpc_modes.json").write_text(json.dumps({"machine": platform.machine(), "casadi": ca.__version__,
+                                                     "mode1": mode1, "closed_loop_thrusters_dead": modes}, indent=2))
+    head = ("| variant | build [s] | median [ms] | p95 [ms] | max [ms] | iterations (median / max) "
+            "| failures / solves |", "|---|---|---|---|---|---|---|")
+
+    def table(rows: dict) -> list[str]:
+        return [*head, *(f"| {k} | {r['build_s']:.1f} | {r['median_ms']:.0f} | {r['p95_ms']:.0f} | {r['max_ms']:.0f} | "
+                         f"{r['median_iterations']:.0f} / {r['max_iterations']} | {r['failures']} / {r['solves']} |"
+                         for k, r in rows.items())]
+
+    ours = mode1["ours: compiled stage derivatives, warm start"]
+    cold = mode1["(a) CasADi + IPOPT, expanded SX, cold start"]
+    lines = [f"# Switching NMPC solve times ({platform.machine()}, casadi {ca.__version__}, 2 cores)", "",
+             "`python bench/nmpc_modes.py`. Targets of issue 4: Mode I median <= 10 ms and p95 <= 25 ms; every "
+             "mode's p95 below the control period (100 ms); Mode I at least 5x faster than (a).", "",
+             f"## Mode I, avoidable approach, {STEPS} closed-loop periods", "", *table(mode1), "",
+             f"Median speed-up of ours over (a): {cold['median_ms'] / ours['median_ms']:.1f}x.", "",
+             "## All modes, thrusters-dead approach (validation.kane_closed_loop)", "", *table(modes)]
+    (OUT / "nmpc_modes.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
