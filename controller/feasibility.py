@@ -12,7 +12,8 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    is feasible). Its optimum is 0 exactly when F is non-empty, so F is declared empty when the
    minimum violation exceeds `tolerance` [m] (summed over nodes and bodies). The problem is not
    convex: a positive local minimum is strong evidence, not a proof, that F is empty (two starts
-   gave 2.5 and 12.8 cm on the same unavoidable case). If IPOPT fails on this
+   gave 2.5 and 12.8 cm on the same unavoidable case). An iterate that IPOPT leaves feasible at its
+   iteration cap counts with its slack sum (an upper bound on the minimum). If IPOPT fails on this
    always-feasible problem, F is declared empty (the safe side: the strategy prepares for contact)
    and the certificate says so by an infinite violation.
 """
@@ -26,7 +27,7 @@ from enum import Enum
 
 import numpy as np
 
-from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
+from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy, rollout
 from uvms.scene import Plane
@@ -85,6 +86,6 @@ class FeasibilityTest:
         if margin >= 0:
             return Certificate(Verdict.FEASIBLE, Method.BRAKING_ROLLOUT, 0.0, margin, time.perf_counter() - t0, None)
         sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
-        violation = float(np.sum(sol.slack)) if sol.status is SolverStatus.SUCCESS else np.inf
+        violation = float(np.sum(sol.slack)) if sol.status.usable else np.inf
         verdict = Verdict.FEASIBLE if violation <= self.tolerance else Verdict.INFEASIBLE
         return Certificate(verdict, Method.MINIMUM_VIOLATION, violation, margin, time.perf_counter() - t0, sol)

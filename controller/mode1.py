@@ -19,24 +19,14 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from enum import Enum
 
 import casadi as ca
 import numpy as np
 
 from controller.model import UVMSModel
 from controller.stage_nlp import StageProblem, build_solver
-from controller.transcription import clearances, midpoint_residual
+from controller.transcription import SolverStatus, clearances, ipopt_status, midpoint_residual
 from uvms.scene import Plane
-
-
-class SolverStatus(Enum):
-    """Outcome of one OCP solve."""
-
-    SUCCESS = "success"
-    MAX_ITER = "max_iter"
-    INFEASIBLE = "infeasible"
-    FAILED = "failed"
 
 
 def _default_state_weights(n_joints: int) -> tuple[float, ...]:
@@ -205,9 +195,7 @@ class ModeIOCP:
         r = self.solver(**args)
         elapsed = time.perf_counter() - t0
         st = self.solver.stats()
-        status = {"Solve_Succeeded": SolverStatus.SUCCESS, "Solved_To_Acceptable_Level": SolverStatus.SUCCESS,
-                  "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER,
-                  "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE}.get(st["return_status"], SolverStatus.FAILED)
+        status = ipopt_status(st)
         w = np.asarray(r["x"]).ravel()
         N, nz, ns, nu = self.settings.horizon, self._nz, self.ns, self.nu
         return OCPSolution(

@@ -29,20 +29,11 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from controller.mode1 import SolverStatus
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
 from controller.stage_nlp import StageProblem, build_solver
-from controller.transcription import clearances, midpoint_residual, smooth_norm, tip_gap
+from controller.transcription import SolverStatus, clearances, ipopt_status, midpoint_residual, smooth_norm, tip_gap
 from uvms.scene import Plane
-
-_STATUS = {"Solve_Succeeded": SolverStatus.SUCCESS, "Solved_To_Acceptable_Level": SolverStatus.SUCCESS,
-           "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER,
-           "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE}
-
-
-def ipopt_status(stats: dict) -> SolverStatus:
-    return _STATUS.get(stats["return_status"], SolverStatus.FAILED)
 
 
 @dataclass(frozen=True)

@@ -39,11 +39,17 @@ import casadi as ca
 import numpy as np
 
 from controller.kinematics import euler_zyx
-from controller.mode1 import SolverStatus
-from controller.mode2 import ipopt_status
 from controller.model import UVMSModel
 from controller.stage_nlp import StageProblem, build_solver
-from controller.transcription import clearances, midpoint_residual, obstacle_frame, smooth_relu, tip_gap
+from controller.transcription import (
+    SolverStatus,
+    clearances,
+    ipopt_status,
+    midpoint_residual,
+    obstacle_frame,
+    smooth_relu,
+    tip_gap,
+)
 from uvms.scene import Plane
 
 

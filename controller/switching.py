@@ -213,7 +213,7 @@ class SwitchingNMPC:
             guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)
         sol = ocp.solve(h, ref, self.current, previous=previous, guess=guess)
         self._ocp_time = sol.solve_time
-        if sol.status is SolverStatus.SUCCESS:
+        if sol.status.usable:
             self._plan = sol
             return (sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
                     self._resimulate(h, sol.u, s.dt), sol.u, None, cert)
@@ -237,7 +237,7 @@ class SwitchingNMPC:
         sol = ocp.solve(h, guess, self.current)
         self._ocp_time = sol.solve_time
         iters = sol.iterations
-        if sol.status is SolverStatus.SUCCESS:
+        if sol.status.usable:
             u, dt, fallback, hp, up = sol.u[0], sol.dt, Fallback.NONE, self._resimulate(h, sol.u, sol.dt), sol.u
             self._plan = sol
         else:
@@ -263,7 +263,7 @@ class SwitchingNMPC:
             guess = ocp.contact_guess(h, np.repeat(self._last_u[None], s.horizon, 0), None, self.current)
         sol = ocp.solve(h, guess, self.current)
         self._ocp_time = sol.solve_time
-        if sol.status is SolverStatus.SUCCESS:
+        if sol.status.usable:
             self._plan = sol
             return (sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
                     self._resimulate(h, sol.u, s.dt, sol.force, ocp), sol.u, sol.force, None)

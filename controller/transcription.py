@@ -9,6 +9,7 @@ eta_k+1 = eta_k + dt eta_dot(h_m), nu_k+1 = nu_k + dt a_k and M(q_m) a_k = Q(h_m
 from __future__ import annotations
 
 from collections.abc import Sequence
+from enum import Enum
 
 import casadi as ca
 import numpy as np
@@ -16,6 +17,36 @@ import numpy as np
 from controller.kinematics import euler_rates, euler_zyx
 from controller.model import UVMSModel
 from uvms.scene import Plane
+
+
+class SolverStatus(Enum):
+    """Outcome of one OCP solve. FEASIBLE: IPOPT stopped at its iteration cap on an iterate that
+    satisfies every constraint (violation below FEASIBLE_VIOLATION): a usable, suboptimal plan."""
+
+    SUCCESS = "success"
+    FEASIBLE = "feasible, not optimal"
+    MAX_ITER = "max_iter"
+    INFEASIBLE = "infeasible"
+    FAILED = "failed"
+
+    @property
+    def usable(self) -> bool:
+        return self in (SolverStatus.SUCCESS, SolverStatus.FEASIBLE)
+
+
+FEASIBLE_VIOLATION = 1e-5  # largest constraint violation (m, N, N m) of a usable iterate at the iteration cap
+
+_IPOPT = {"Solve_Succeeded": SolverStatus.SUCCESS, "Solved_To_Acceptable_Level": SolverStatus.SUCCESS,
+          "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER, "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE}
+
+
+def ipopt_status(stats: dict) -> SolverStatus:
+    """The status of a CasADi IPOPT solve from its stats()."""
+    status = _IPOPT.get(stats["return_status"], SolverStatus.FAILED)
+    inf_pr = stats.get("iterations", {}).get("inf_pr", [np.inf])
+    if status is SolverStatus.MAX_ITER and inf_pr and inf_pr[-1] < FEASIBLE_VIOLATION:
+        return SolverStatus.FEASIBLE
+    return status
 
 
 def midpoint_residual(model: UVMSModel, h: ca.SX, u: ca.SX, a: ca.SX, h1: ca.SX, dt: ca.SX, vc: ca.SX,

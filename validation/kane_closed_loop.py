@@ -43,6 +43,7 @@ SCENARIOS = {
     "avoidable": Approach("avoidable", gap=1.0, speed=0.3, duration=3.0),
     "thrusters-dead-current": Approach("thrusters-dead-current", gap=0.6, speed=0.3, duration=5.0,
                                        failed_thrusters=tuple(range(8)), current=(0.15, 0.0, 0.0)),
+    "current": Approach("current", gap=0.3, speed=0.6, duration=3.0, current=(0.3, 0.0, 0.0)),
     "thrusters-dead": Approach("thrusters-dead", gap=0.38, speed=0.7, duration=3.0, failed_thrusters=tuple(range(8))),
 }
 

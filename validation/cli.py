@@ -1,0 +1,72 @@
+"""`uvms`: the testbed's command line.
+
+  uvms scenarios                                   list the scenarios, one line each
+  uvms run NAME [--set key=value ...] [--out DIR] [--video FILE]
+                                                   run one in closed loop against MuJoCo
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from validation.scenarios import SCENARIOS, get
+
+
+def _overrides(pairs: list[str]) -> dict[str, str]:
+    out = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep or not key:
+            raise ValueError(f"override {pair!r} is malformed; allowed: key=value")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def _print_summary(s: dict) -> None:
+    rows = [("verdict", f"{s['verdict']}: {s['reason']}"), ("modes", " > ".join(s["modes"])),
+            ("min hull distance [m]", f"{s['min_hull_distance']:.3f}"),
+            ("hull contact impulse [N s]", f"{s['hull_contact_impulse']:.3f}"),
+            ("peak end-effector force [N]", f"{s['ee_peak_contact_force']:.0f} "
+             f"(max total thrust along the wall normal: {s['max_total_thrust_along_wall_normal']:.0f})"),
+            ("final task error [m]", f"{s['final_task_error']:.3f}"),
+            ("fallbacks", str(s["fallbacks"])),
+            ("step time median / p95 [ms]", ", ".join(f"{m}: {1e3 * v['median_s']:.0f} / {1e3 * v['p95_s']:.0f}"
+                                                      for m, v in s["solve_time"].items())),
+            ("simulated / wall clock [s]", f"{s['simulated_s']:.1f} / {s['wall_clock_s']:.1f}")]
+    width = max(len(k) for k, _ in rows)
+    for k, v in rows:
+        print(f"{k:<{width}}  {v}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="uvms", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="command", required=True)
+    sub.add_parser("scenarios", help="list the scenarios")
+    run = sub.add_parser("run", help="run one scenario in closed loop against MuJoCo")
+    run.add_argument("scenario", help="a scenario name (uvms scenarios)")
+    run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scenario setting, e.g. speed=0.5 or current=0.2,0,0")
+    run.add_argument("--out", type=Path, default=Path("out"), help="folder for summary.json (default: out)")
+    run.add_argument("--video", type=Path, help="write an MP4 rendered headlessly (EGL)")
+    args = ap.parse_args(argv)
+    try:
+        if args.command == "scenarios":
+            width = max(len(n) for n in SCENARIOS)
+            for name, sc in SCENARIOS.items():
+                print(f"{name:<{width}}  {sc.description}")
+            return 0
+        scenario = get(args.scenario).with_overrides(_overrides(args.set))
+        from validation.closed_loop import run as run_scenario  # heavy imports only when running
+        summary = run_scenario(scenario, out=args.out, video=args.video)
+    except ValueError as e:
+        print(f"uvms: error: {e}", file=sys.stderr)
+        return 2
+    _print_summary(summary)
+    print(f"wrote {args.out / 'summary.json'}" + (f" and {args.video}" if args.video else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,148 @@
+"""The switching NMPC against the MuJoCo plant (issue 5): one scenario, closed loop, scored.
+
+A control period is the step's dt (dt_nom, or Mode II's dt* rounded to the physics timestep) with
+the input held (zero-order) over MuJoCo's physics steps and the state measured from the plant. The
+controller knows the scene's current at each step and is told of thruster failures when they happen;
+nothing else about the plant (its fluid model, contact, joint friction) is shared.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless rendering
+
+import json
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from controller.model import UVMSModel
+from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
+from uvms import load_params, load_scene
+from uvms.scene import Current
+from uvms_mj.build import HULL, TIP_GEOM
+from uvms_mj.plant import Plant, PlantSettings, ThrusterFault
+from validation.scenarios import Scenario
+
+WALL_X = 2.0
+VIDEO_FPS = 25
+
+
+def initial_state(params, sc: Scenario) -> tuple[np.ndarray, np.ndarray]:
+    """The start state and the task's reference state."""
+    n = params.n_joints
+    if sc.posture not in ("stowed", "home"):
+        raise ValueError(f"posture {sc.posture!r}; allowed: stowed, home")
+    front = params.hull.superellipsoid.semi_axes[0]
+    h = np.zeros(params.n_states)
+    h[0], h[2] = WALL_X - front - sc.gap, sc.depth
+    h[6:6 + n] = params.arm.stowed if sc.posture == "stowed" else params.arm.home
+    a = np.radians(sc.angle)
+    h[6 + n:9 + n] = [sc.speed * np.cos(a), sc.speed * np.sin(a), -sc.sink]
+    ref = h.copy()
+    ref[0], ref[6 + n:] = WALL_X - front - sc.target_gap, 0.0
+    return h, ref
+
+
+def current_profile(sc: Scenario) -> Current:
+    c, g = np.asarray(sc.current, float), np.asarray(sc.gust, float)
+    if not np.any(g):
+        return Current.constant(c)
+    return Current(times=np.array([0.0, 1.0, 2.0]), velocities=np.array([c, c, c + g]))
+
+
+def max_thrust_along(params, direction: np.ndarray) -> float:
+    """The largest total thruster force [N] along a world direction at zero attitude."""
+    lo, hi = params.input_bounds()
+    proj = params.allocation_matrix()[:3].T @ direction
+    nt = params.n_thrusters
+    return float(np.sum(np.where(proj > 0, hi[:nt] * proj, lo[:nt] * proj)))
+
+
+def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
+        settings: SwitchingSettings | None = None) -> dict:
+    """Run one scenario; returns the summary (also written to out/summary.json when out is given)."""
+    settings = settings or SwitchingSettings()
+    for path in (out, video.parent if video else None):
+        if path is not None:
+            try:
+                path.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise ValueError(f"output path {path}: {e.strerror}; allowed: a writable folder") from None
+    params, scene = load_params(arm=sc.arm), load_scene()
+    scene = scene.with_current(current_profile(sc))
+    model = UVMSModel(params, scene.water)
+    h0, ref = initial_state(params, sc)
+    plant = Plant(params, scene, PlantSettings(faults=tuple(ThrusterFault(i, sc.fail_at) for i in sc.failed_thrusters)))
+    plant.reset(h0)
+    ctl = SwitchingNMPC(model, scene.planes, ref, settings)
+    ts = plant.model.opt.timestep
+    recorder = None
+    if video is not None:
+        from uvms_mj.render import VideoRecorder
+        recorder = VideoRecorder(plant, video, fps=VIDEO_FPS)
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
+    min_dist = np.full((len(plant.geom_names), len(scene.planes)), np.inf)
+    hull_impulse, hull_peak, ee_peak, steps, failed = np.zeros(3), 0.0, 0.0, [], False
+    next_frame, wall_clock = 0.0, time.perf_counter()
+    try:
+        while plant.t < sc.duration - 1e-9:
+            t = plant.t
+            if not failed and sc.failed_thrusters and t >= sc.fail_at - 1e-9:
+                ctl.set_failed_thrusters(sc.failed_thrusters)
+                failed = True
+            ctl.current = scene.current.at(t)
+            u, info = ctl.step(plant.state(), t)
+            dt = max(ts, round(info.dt / ts) * ts)
+            report = plant.step(u, dt)
+            min_dist = np.minimum(min_dist, report.distances)
+            for c in report.contacts:
+                if c.body == HULL:
+                    hull_impulse += c.impulse
+                    hull_peak = max(hull_peak, c.peak_normal_force)
+                if c.geom == TIP_GEOM:
+                    ee_peak = max(ee_peak, c.peak_normal_force)
+            steps.append({"t": t, "dt": dt, "mode": info.mode.value, "status": info.status.value,
+                          "fallback": info.fallback.value, "solve_time": info.solve_time, "ocp_time": info.ocp_time,
+                          "iterations": info.iterations, "horizon": info.horizon})
+            while recorder is not None and next_frame <= plant.t + 1e-9:
+                recorder.capture()
+                next_frame += 1.0 / VIDEO_FPS
+    finally:
+        if recorder is not None:
+            recorder.close()
+    h = plant.state()
+    n = params.n_joints
+    task_error = float(np.linalg.norm(h[:3] - ref[:3]))
+    modes = [s["mode"] for s in steps]
+    timeline = [[s["t"], s["mode"]] for k, s in enumerate(steps) if k == 0 or modes[k - 1] != s["mode"]]
+    per_mode = {}
+    for m in Mode:
+        times = [s["solve_time"] for s in steps if s["mode"] == m.value]
+        if times:
+            per_mode[m.value] = {"steps": len(times), "median_s": float(np.median(times)),
+                                 "p95_s": float(np.percentile(times, 95)), "max_s": float(np.max(times))}
+    thrust = max_thrust_along(params, -scene.planes[wall].normal)
+    hull_touch = float(np.linalg.norm(hull_impulse))
+    verdict = "success" if hull_touch == 0.0 else "hull contact"
+    reason = ("the hull never touched an obstacle" if hull_touch == 0.0 else
+              f"the hull touched with {hull_touch:.3f} N s of impulse, peak {hull_peak:.0f} N")
+    summary = {
+        "scenario": asdict(sc), "verdict": verdict, "reason": reason,
+        "modes": [m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m], "timeline": timeline,
+        "min_distance": {g: {p.name: float(min_dist[i, j]) for j, p in enumerate(scene.planes)}
+                         for i, g in enumerate(plant.geom_names)},
+        "min_hull_distance": float(min_dist[hull_geoms].min()) if hull_geoms else None,
+        "hull_contact_impulse": hull_touch, "hull_peak_contact_force": hull_peak,
+        "ee_peak_contact_force": ee_peak, "max_total_thrust_along_wall_normal": thrust,
+        "final_task_error": task_error, "final_joint_angles": h[6:6 + n].tolist(),
+        "solve_time": per_mode, "fallbacks": sum(s["fallback"] != Fallback.NONE.value for s in steps),
+        "simulated_s": plant.t, "wall_clock_s": time.perf_counter() - wall_clock, "steps": steps,
+    }
+    if out is not None:
+        (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    return summary
