@@ -5,8 +5,10 @@ Every approach starts at rest in attitude with the hull's front `gap` m from the
 `speed` m/s at `angle` deg to the wall's normal, at depth `depth`; the task is to rest with the front
 `target_gap` m from the wall at the start's depth and heading. `failed_thrusters` die at `fail_at`
 seconds (in the plant; the controller is told at once, as in the paper's thruster-malfunction
-case). With all eight thrusters this vehicle brakes 0.9 m/s within 5 cm, so the unavoidable
-approaches here involve lost thrust, as in the paper's Case 4B.
+case). The BlueROV2's drag is large (141 N s^2/m^2 in surge): with its thrusters it brakes 0.9 m/s
+within 5 cm, and without them it still coasts from 1.3 m/s to rest within 0.16 m in MuJoCo. So the
+unavoidable approaches here combine lost thrust with a current that keeps pushing, as in the
+paper's Case 4B.
 """
 
 from __future__ import annotations
@@ -60,21 +62,23 @@ class Scenario:
 
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
     Scenario("avoid-wall", "0.3 m/s towards the wall 1 m ahead, thrusters working: Mode I only"),
-    Scenario("wall-headon", "0.7 m/s head-on, 0.38 m from the wall, horizontal thrusters lost at t = 0",
-             gap=0.38, speed=0.7, failed_thrusters=HORIZONTAL, duration=3.0),
-    Scenario("wall-oblique", "0.7 m/s at 30 deg, 0.38 m from the wall, horizontal thrusters lost at t = 0",
-             gap=0.38, speed=0.7, angle=30.0, failed_thrusters=HORIZONTAL, duration=3.0),
-    Scenario("arm-deployed", "as wall-headon, arm starting at home (deployed forward)",
-             gap=0.38, speed=0.7, posture="home", failed_thrusters=HORIZONTAL, duration=3.0),
+    Scenario("wall-headon", "0.4 m/s head-on, 0.6 m from the wall, 0.25 m/s current towards it, horizontal "
+             "thrusters lost at t = 0", gap=0.6, speed=0.4, current=(0.25, 0.0, 0.0), failed_thrusters=HORIZONTAL,
+             duration=5.0),
+    Scenario("wall-oblique", "as wall-headon, moving at 30 deg to the wall's normal", gap=0.6, speed=0.4, angle=30.0,
+             current=(0.25, 0.0, 0.0), failed_thrusters=HORIZONTAL, duration=5.0),
+    Scenario("arm-deployed", "as wall-headon, the arm starting at home (deployed forward)", gap=0.6, speed=0.4,
+             posture="home", current=(0.25, 0.0, 0.0), failed_thrusters=HORIZONTAL, duration=5.0),
     Scenario("current-steady", "station keeping 0.4 m from the wall in a 0.3 m/s current towards it",
              gap=0.4, speed=0.0, target_gap=0.4, current=(0.3, 0.0, 0.0), duration=4.0),
-    Scenario("current-gust", "station keeping 0.4 m from the wall, current rising from 0.1 to 0.4 m/s",
+    Scenario("current-gust", "station keeping 0.4 m from the wall, current rising from 0.1 to 0.4 m/s at 1-2 s",
              gap=0.4, speed=0.0, target_gap=0.4, current=(0.1, 0.0, 0.0), gust=(0.3, 0.0, 0.0), duration=4.0),
-    Scenario("thrusters-dead", "every thruster dead at t = 0, 0.7 m/s towards the wall 0.38 m ahead (Case 4B)",
-             gap=0.38, speed=0.7, failed_thrusters=ALL, duration=3.0),
+    Scenario("thrusters-dead", "every thruster dead at t = 0, drifting at 0.4 m/s in a 0.25 m/s current towards "
+             "the wall 0.6 m ahead (Case 4B)", gap=0.6, speed=0.4, current=(0.25, 0.0, 0.0), failed_thrusters=ALL,
+             duration=5.0),
     Scenario("corner", "0.5 m/s towards the wall 0.5 m ahead, 0.3 m above the seafloor, sinking 0.2 m/s",
              gap=0.5, speed=0.5, depth=-2.45, sink=0.2, duration=3.0),
-    Scenario("mission-near-wall", "hold a point 0.3 m from the wall; all thrusters fail at 1 s with 0.15 m/s "
+    Scenario("mission-near-wall", "hold a point 0.3 m from the wall; all thrusters fail at 1 s in a 0.15 m/s "
              "current towards the wall", gap=0.3, speed=0.0, target_gap=0.3, current=(0.15, 0.0, 0.0),
              failed_thrusters=ALL, fail_at=1.0, duration=4.0),
 )}
