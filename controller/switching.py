@@ -58,6 +58,7 @@ class SwitchingSettings:
     mode2: ModeIISettings = field(default_factory=ModeIISettings)
     mode3: ModeIIISettings = field(default_factory=ModeIIISettings)
     feasibility_tolerance: float = 1e-3  # m, summed clearance violation
+    switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     separation_speed: float = 0.0  # m/s: Mode III -> I once the hull's closing speed exceeds this
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
@@ -198,8 +199,8 @@ class SwitchingNMPC:
     def _step_mode1(self, h: np.ndarray, t: float):
         s, ocp = self.settings.mode1, self.mode1
         ref = np.asarray(self.reference(t), float)
-        cert = self.feasibility(h, ref, self.current)
-        if cert.verdict is Verdict.INFEASIBLE:
+        cert = self.feasibility(h, ref, self.current) if self.settings.switching else None
+        if cert is not None and cert.verdict is Verdict.INFEASIBLE:
             self.contact = self._closest_plane(h)
             self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
             return self._step_mode2(h, cert)
@@ -209,7 +210,7 @@ class SwitchingNMPC:
         if previous is not None:
             us = np.vstack([previous.u[1:], previous.u[-1:]])
             guess = ocp.guess_from_rollout(self._resimulate(h, us, s.dt), us)
-        elif cert.solution is not None:
+        elif cert is not None and cert.solution is not None:
             guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)
         sol = ocp.solve(h, ref, self.current, previous=previous, guess=guess)
         self._ocp_time = sol.solve_time

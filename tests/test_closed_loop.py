@@ -68,3 +68,19 @@ def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     assert video.stat().st_size > 10_000
     assert json.loads((tmp_path / "summary.json").read_text())["verdict"] == "success"
     assert np.isfinite(s["final_task_error"])
+
+
+def test_a_crashing_run_is_recorded_and_the_others_finish(tmp_path) -> None:
+    """A campaign of two runs, one of them broken (an arm posture that does not exist): the broken
+    one is a row with verdict "error" and a one-line reason; the other finishes; both are in the CSV
+    and markdown tables."""
+    from validation.campaign import campaign
+
+    good = replace(get("avoid-wall"), duration=0.3)
+    bad = replace(good, name="broken", posture="sideways")
+    rows = campaign([good, bad], ["braking"], workers=2, out=tmp_path)
+    by_name = {r["scenario"]: r for r in rows}
+    assert by_name["avoid-wall"]["verdict"] == "success"
+    assert by_name["broken"]["verdict"] == "error" and "posture" in by_name["broken"]["reason"]
+    assert (tmp_path / "results.csv").read_text().count("\n") == 3
+    assert "broken" in (tmp_path / "results.md").read_text()

@@ -1,8 +1,10 @@
 """`uvms`: the testbed's command line.
 
   uvms scenarios                                   list the scenarios, one line each
-  uvms run NAME [--set key=value ...] [--out DIR] [--video FILE]
+  uvms run NAME [--set key=value ...] [--controller C] [--out DIR] [--video FILE]
                                                    run one in closed loop against MuJoCo
+  uvms campaign [--scenarios A,B] [--controllers C,D] [--set key=value ...] [--workers K] [--out DIR]
+                                                   run many, with a progress bar and a results table
 """
 
 from __future__ import annotations
@@ -50,6 +52,13 @@ def main(argv: list[str] | None = None) -> int:
                      help="override a scenario setting, e.g. speed=0.5 or current=0.2,0,0")
     run.add_argument("--out", type=Path, default=Path("out"), help="folder for summary.json (default: out)")
     run.add_argument("--video", type=Path, help="write an MP4 rendered headlessly (EGL)")
+    run.add_argument("--controller", default="switching", help="switching (default), mode1-only or braking")
+    camp = sub.add_parser("campaign", help="run many scenarios and controllers in worker processes")
+    camp.add_argument("--scenarios", default=",".join(SCENARIOS), help="comma-separated names (default: all)")
+    camp.add_argument("--controllers", default="switching,mode1-only,braking", help="comma-separated")
+    camp.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    camp.add_argument("--out", type=Path, default=Path("out/campaign"), help="folder for results.csv and .md")
+    camp.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every scenario")
     args = ap.parse_args(argv)
     try:
         if args.command == "scenarios":
@@ -57,9 +66,21 @@ def main(argv: list[str] | None = None) -> int:
             for name, sc in SCENARIOS.items():
                 print(f"{name:<{width}}  {sc.description}")
             return 0
+        if args.command == "campaign":
+            from validation.campaign import campaign
+            from validation.closed_loop import CONTROLLERS
+            controllers = [c for c in args.controllers.split(",") if c]
+            for c in controllers:
+                if c not in CONTROLLERS:
+                    raise ValueError(f"unknown controller {c!r}; allowed: {', '.join(CONTROLLERS)}")
+            overrides = _overrides(args.set)
+            scenarios = [get(n).with_overrides(overrides) for n in args.scenarios.split(",") if n]
+            rows = campaign(scenarios, controllers, args.workers, args.out)
+            print(Path(args.out / "results.md").read_text())
+            return 0 if all(r.get("verdict") != "error" for r in rows) else 1
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
         from validation.closed_loop import run as run_scenario  # heavy imports only when running
-        summary = run_scenario(scenario, out=args.out, video=args.video)
+        summary = run_scenario(scenario, out=args.out, video=args.video, controller=args.controller)
     except ValueError as e:
         print(f"uvms: error: {e}", file=sys.stderr)
         return 2

@@ -14,12 +14,13 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless
 
 import json
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
 
 from controller.model import UVMSModel
+from controller.rollouts import BrakingPolicy
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
 from uvms import load_params, load_scene
 from uvms.scene import Current
@@ -62,10 +63,19 @@ def max_thrust_along(params, direction: np.ndarray) -> float:
     return float(np.sum(np.where(proj > 0, hi[:nt] * proj, lo[:nt] * proj)))
 
 
+CONTROLLERS = ("switching", "mode1-only", "braking")
+
+
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
-        settings: SwitchingSettings | None = None) -> dict:
-    """Run one scenario; returns the summary (also written to out/summary.json when out is given)."""
-    settings = settings or SwitchingSettings()
+        settings: SwitchingSettings | None = None, controller: str = "switching") -> dict:
+    """Run one scenario; returns the summary (also written to out/summary.json when out is given).
+
+    `controller`: "switching" (ours), "mode1-only" (the same NMPC without switching: Mode I, with its
+    braking fallback when a solve fails) or "braking" (maximum thruster braking with attitude hold,
+    the arm held at its posture: controller.rollouts.BrakingPolicy)."""
+    if controller not in CONTROLLERS:
+        raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
+    settings = replace(settings or SwitchingSettings(), switching=controller != "mode1-only")
     for path in (out, video.parent if video else None):
         if path is not None:
             try:
@@ -79,6 +89,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
     plant = Plant(params, scene, PlantSettings(faults=tuple(ThrusterFault(i, sc.fail_at) for i in sc.failed_thrusters)))
     plant.reset(h0)
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
+    braking = BrakingPolicy(model)
     ts = plant.model.opt.timestep
     recorder = None
     if video is not None:
@@ -94,10 +105,16 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
             t = plant.t
             if not failed and sc.failed_thrusters and t >= sc.fail_at - 1e-9:
                 ctl.set_failed_thrusters(sc.failed_thrusters)
+                braking.limit_thrust(ctl.lo, ctl.hi)
                 failed = True
             ctl.current = scene.current.at(t)
-            u, info = ctl.step(plant.state(), t)
-            dt = max(ts, round(info.dt / ts) * ts)
+            if controller == "braking":
+                h = plant.state()
+                u, dt = braking(h, h0[6:6 + params.n_joints], ctl.current), settings.mode1.dt
+                info = None
+            else:
+                u, info = ctl.step(plant.state(), t)
+                dt = max(ts, round(info.dt / ts) * ts)
             report = plant.step(u, dt)
             min_dist = np.minimum(min_dist, report.distances)
             for c in report.contacts:
@@ -108,7 +125,9 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
                     ee_peak = max(ee_peak, c.peak_normal_force)
             steps.append({"t": t, "dt": dt, "mode": info.mode.value, "status": info.status.value,
                           "fallback": info.fallback.value, "solve_time": info.solve_time, "ocp_time": info.ocp_time,
-                          "iterations": info.iterations, "horizon": info.horizon})
+                          "iterations": info.iterations, "horizon": info.horizon} if info else
+                         {"t": t, "dt": dt, "mode": "braking", "status": "-", "fallback": Fallback.NONE.value,
+                          "solve_time": 0.0, "ocp_time": 0.0, "iterations": 0, "horizon": 0})
             while recorder is not None and next_frame <= plant.t + 1e-9:
                 recorder.capture()
                 next_frame += 1.0 / VIDEO_FPS
@@ -121,10 +140,10 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
     modes = [s["mode"] for s in steps]
     timeline = [[s["t"], s["mode"]] for k, s in enumerate(steps) if k == 0 or modes[k - 1] != s["mode"]]
     per_mode = {}
-    for m in Mode:
-        times = [s["solve_time"] for s in steps if s["mode"] == m.value]
+    for m in [*(m.value for m in Mode), "braking"]:
+        times = [s["solve_time"] for s in steps if s["mode"] == m]
         if times:
-            per_mode[m.value] = {"steps": len(times), "median_s": float(np.median(times)),
+            per_mode[m] = {"steps": len(times), "median_s": float(np.median(times)),
                                  "p95_s": float(np.percentile(times, 95)), "max_s": float(np.max(times))}
     thrust = max_thrust_along(params, -scene.planes[wall].normal)
     hull_touch = float(np.linalg.norm(hull_impulse))
@@ -132,7 +151,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
     reason = ("the hull never touched an obstacle" if hull_touch == 0.0 else
               f"the hull touched with {hull_touch:.3f} N s of impulse, peak {hull_peak:.0f} N")
     summary = {
-        "scenario": asdict(sc), "verdict": verdict, "reason": reason,
+        "scenario": asdict(sc), "controller": controller, "verdict": verdict, "reason": reason,
         "modes": [m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m], "timeline": timeline,
         "min_distance": {g: {p.name: float(min_dist[i, j]) for j, p in enumerate(scene.planes)}
                          for i, g in enumerate(plant.geom_names)},

@@ -1,0 +1,80 @@
+"""Campaigns: many closed-loop runs in worker processes, with a progress bar, collected into a
+results table (CSV and markdown). A run that raises is recorded as that run's failure (verdict
+"error" and the exception's first line); it never stops the others."""
+
+from __future__ import annotations
+
+import csv
+import multiprocessing
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+from tqdm import tqdm
+
+from validation.scenarios import Scenario
+
+FIELDS = ("scenario", "controller", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
+          "ee_peak_contact_force", "max_total_thrust_along_wall_normal", "final_task_error", "fallbacks",
+          "wall_clock_s", "reason")
+
+
+@dataclass(frozen=True)
+class Job:
+    scenario: Scenario
+    controller: str
+
+
+def run_job(job: Job) -> dict:
+    """One run's row of the results table; exceptions become the row's verdict."""
+    row = {"scenario": job.scenario.name, "controller": job.controller}
+    try:
+        from validation.closed_loop import run
+        s = run(job.scenario, controller=job.controller)
+        row.update({k: s[k] for k in FIELDS if k in s and k not in row})
+        row["modes"] = " > ".join(s["modes"])
+    except Exception as e:  # a failed run is recorded, never fatal to the campaign
+        row.update(verdict="error", reason=f"{type(e).__name__}: {e}".splitlines()[0])
+    return row
+
+
+def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers: int, out: Path) -> list[dict]:
+    """Run every scenario with every controller; write out/results.csv and out/results.md."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ValueError(f"output path {out}: {e.strerror}; allowed: a writable folder") from None
+    jobs = [Job(s, c) for s in scenarios for c in controllers]
+    rows = []
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=ctx) as pool:
+        futures = [pool.submit(run_job, j) for j in jobs]
+        for f in tqdm(as_completed(futures), total=len(futures), desc="campaign", unit="run"):
+            rows.append(f.result())
+    order = {(j.scenario.name, j.controller): i for i, j in enumerate(jobs)}
+    rows.sort(key=lambda r: order[(r["scenario"], r["controller"])])
+    with (out / "results.csv").open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=FIELDS)
+        writer.writeheader()
+        for r in rows:
+            writer.writerow({k: r.get(k, "") for k in FIELDS})
+    (out / "results.md").write_text(markdown(rows))
+    return rows
+
+
+def _fmt(v) -> str:
+    return f"{v:.3f}" if isinstance(v, float) else str(v)
+
+
+def markdown(rows: list[dict]) -> str:
+    cols = ("scenario", "controller", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
+            "ee_peak_contact_force", "fallbacks")
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(_fmt(r.get(c, "")) for c in cols) + " |" for r in rows]
+    ok = {}
+    for r in rows:
+        ok.setdefault(r["controller"], []).append(r.get("verdict") == "success")
+    lines += ["", "| controller | success rate |", "|---|---|"]
+    lines += [f"| {c} | {sum(v)}/{len(v)} |" for c, v in ok.items()]
+    return "\n".join(lines) + "\n"
