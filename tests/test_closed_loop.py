@@ -9,8 +9,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from uvms import load_params
 from validation.cli import main
 from validation.closed_loop import run
+from validation.mismatch import DEFAULT, NONE, draw, parse
 from validation.scenarios import SCENARIOS, get
 
 
@@ -56,12 +58,13 @@ def test_avoid_wall_never_leaves_mode_one_and_never_touches(tmp_path) -> None:
 @pytest.mark.slow
 def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     """wall-headon in MuJoCo (horizontal thrusters lost, a 0.25 m/s current pushing towards the
-    wall): modes I -> II -> III -> I within 1.2 s, the hull never touches (zero contact impulse from
-    MuJoCo's contacts), and the end-effector's peak contact force exceeds the largest total thrust
-    the thrusters could give along the wall's normal (the paper's observation). A headless video is
-    written (EGL)."""
+    wall), with no declared parameter mismatch (the plant's physics are still MuJoCo's, not the
+    model's): modes I -> II -> III -> I within 1.2 s, the hull never touches (zero contact impulse
+    from MuJoCo's contacts), and the end-effector's peak contact force exceeds the largest total
+    thrust the thrusters could give along the wall's normal (the paper's observation). A headless
+    video is written (EGL)."""
     video = tmp_path / "run.mp4"
-    s = run(replace(get("wall-headon"), duration=1.2), out=tmp_path, video=video)
+    s = run(replace(get("wall-headon"), duration=1.2), out=tmp_path, video=video, mismatch=NONE)
     assert s["modes"][:4] == ["I", "II", "III", "I"]
     assert s["hull_contact_impulse"] == 0.0
     assert s["ee_peak_contact_force"] > s["max_total_thrust_along_wall_normal"]
@@ -84,3 +87,32 @@ def test_a_crashing_run_is_recorded_and_the_others_finish(tmp_path) -> None:
     assert by_name["broken"]["verdict"] == "error" and "posture" in by_name["broken"]["reason"]
     assert (tmp_path / "results.csv").read_text().count("\n") == 3
     assert "broken" in (tmp_path / "results.md").read_text()
+
+
+def test_mismatch_is_parsed_seeded_and_rejected_in_one_line() -> None:
+    """The default spec parses; the same seed draws the same values, another seed others, all
+    within their uniform ranges; bad specs give one line naming what is allowed."""
+    assert {t.name for t in parse(DEFAULT)} == {"added_mass", "drag", "mass", "cob", "friction"}
+    a, b, c = draw(DEFAULT, 3), draw(DEFAULT, 3), draw(DEFAULT, 4)
+    assert a == b and a != c
+    assert 0.8 <= a["added_mass"] <= 1.2 and -0.003 <= a["cob"] <= 0.003
+    for bad in ("added_mass*U(0.8)", "mass+U(0,1)", "viscosity*2", "drag*fast"):
+        with pytest.raises(ValueError, match="allowed") as err:
+            parse(bad)
+        assert "\n" not in str(err.value)
+
+
+def test_mismatch_changes_only_the_plant(params, scene) -> None:
+    """apply() scales exactly the named plant fields (closed form) and leaves the controller's
+    parameters (the input) untouched."""
+    from validation.mismatch import apply
+
+    plant, plant_scene, current, dead = apply(params, scene, {"added_mass": 1.5, "mass": 1.1, "cob": 0.002,
+                                                             "friction": 0.5, "current": 0.1, "thruster": 3.7})
+    np.testing.assert_allclose(plant.hull.added_mass, 1.5 * params.hull.added_mass)
+    assert plant.hull.mass == pytest.approx(1.1 * params.hull.mass)
+    assert plant.hull.cob[2] == pytest.approx(params.hull.cob[2] + 0.002)
+    assert plant_scene.planes[0].friction == pytest.approx(0.5 * scene.planes[0].friction)
+    assert current.tolist() == [0.1, 0.0, 0.0] and dead == [3]
+    assert plant.arm.links[0].added_mass_coefficient == pytest.approx(1.5 * params.arm.links[0].added_mass_coefficient)
+    assert load_params().hull.mass == params.hull.mass

@@ -15,7 +15,7 @@ from tqdm import tqdm
 
 from validation.scenarios import Scenario
 
-FIELDS = ("scenario", "controller", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
+FIELDS = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
           "ee_peak_contact_force", "max_total_thrust_along_wall_normal", "final_task_error", "fallbacks",
           "wall_clock_s", "reason")
 
@@ -24,14 +24,16 @@ FIELDS = ("scenario", "controller", "verdict", "modes", "min_hull_distance", "hu
 class Job:
     scenario: Scenario
     controller: str
+    mismatch: str
+    seed: int
 
 
 def run_job(job: Job) -> dict:
     """One run's row of the results table; exceptions become the row's verdict."""
-    row = {"scenario": job.scenario.name, "controller": job.controller}
+    row = {"scenario": job.scenario.name, "controller": job.controller, "seed": job.seed}
     try:
         from validation.closed_loop import run
-        s = run(job.scenario, controller=job.controller)
+        s = run(job.scenario, controller=job.controller, mismatch=job.mismatch, seed=job.seed)
         row.update({k: s[k] for k in FIELDS if k in s and k not in row})
         row["modes"] = " > ".join(s["modes"])
     except Exception as e:  # a failed run is recorded, never fatal to the campaign
@@ -39,21 +41,23 @@ def run_job(job: Job) -> dict:
     return row
 
 
-def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers: int, out: Path) -> list[dict]:
-    """Run every scenario with every controller; write out/results.csv and out/results.md."""
+def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers: int, out: Path,
+             mismatch: str = "", seeds: int = 1) -> list[dict]:
+    """Run every scenario with every controller and every seed of the mismatch (the same draws for
+    every controller); write out/results.csv and out/results.md."""
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise ValueError(f"output path {out}: {e.strerror}; allowed: a writable folder") from None
-    jobs = [Job(s, c) for s in scenarios for c in controllers]
+    jobs = [Job(s, c, mismatch, seed) for s in scenarios for seed in range(seeds) for c in controllers]
     rows = []
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=ctx) as pool:
         futures = [pool.submit(run_job, j) for j in jobs]
         for f in tqdm(as_completed(futures), total=len(futures), desc="campaign", unit="run"):
             rows.append(f.result())
-    order = {(j.scenario.name, j.controller): i for i, j in enumerate(jobs)}
-    rows.sort(key=lambda r: order[(r["scenario"], r["controller"])])
+    order = {(j.scenario.name, j.controller, j.seed): i for i, j in enumerate(jobs)}
+    rows.sort(key=lambda r: order[(r["scenario"], r["controller"], r["seed"])])
     with (out / "results.csv").open("w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=FIELDS)
         writer.writeheader()
@@ -68,7 +72,7 @@ def _fmt(v) -> str:
 
 
 def markdown(rows: list[dict]) -> str:
-    cols = ("scenario", "controller", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
+    cols = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
             "ee_peak_contact_force", "fallbacks")
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     lines += ["| " + " | ".join(_fmt(r.get(c, "")) for c in cols) + " |" for r in rows]

@@ -1,9 +1,9 @@
 """`uvms`: the testbed's command line.
 
   uvms scenarios                                   list the scenarios, one line each
-  uvms run NAME [--set key=value ...] [--controller C] [--out DIR] [--video FILE]
+  uvms run NAME [--set key=value ...] [--mismatch M] [--seed N] [--controller C] [--out DIR] [--video FILE]
                                                    run one in closed loop against MuJoCo
-  uvms campaign [--scenarios A,B] [--controllers C,D] [--set key=value ...] [--workers K] [--out DIR]
+  uvms campaign [--scenarios A,B] [--controllers C,D] [--mismatch M] [--seeds N] [--workers K] [--out DIR]
                                                    run many, with a progress bar and a results table
 """
 
@@ -26,6 +26,15 @@ def _overrides(pairs: list[str]) -> dict[str, str]:
     return out
 
 
+def _mismatch(text: str) -> str:
+    """The mismatch spec: "default", "none" or the terms themselves (checked here, one line if bad)."""
+    from validation import mismatch
+
+    spec = {"default": mismatch.DEFAULT, "none": mismatch.NONE}.get(text, text)
+    mismatch.parse(spec)
+    return spec
+
+
 def _print_summary(s: dict) -> None:
     rows = [("verdict", f"{s['verdict']}: {s['reason']}"), ("modes", " > ".join(s["modes"])),
             ("min hull distance [m]", f"{s['min_hull_distance']:.3f}"),
@@ -33,6 +42,8 @@ def _print_summary(s: dict) -> None:
             ("peak end-effector force [N]", f"{s['ee_peak_contact_force']:.0f} "
              f"(max total thrust along the wall normal: {s['max_total_thrust_along_wall_normal']:.0f})"),
             ("final task error [m]", f"{s['final_task_error']:.3f}"),
+            ("mismatch (seed)", f"{s['mismatch']['spec'] or 'none'} ({s['mismatch']['seed']}): "
+             + ", ".join(f"{k} {v:.3g}" for k, v in s["mismatch"]["values"].items())),
             ("fallbacks", str(s["fallbacks"])),
             ("step time median / p95 [ms]", ", ".join(f"{m}: {1e3 * v['median_s']:.0f} / {1e3 * v['p95_s']:.0f}"
                                                       for m, v in s["solve_time"].items())),
@@ -53,12 +64,18 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--out", type=Path, default=Path("out"), help="folder for summary.json (default: out)")
     run.add_argument("--video", type=Path, help="write an MP4 rendered headlessly (EGL)")
     run.add_argument("--controller", default="switching", help="switching (default), mode1-only or braking")
+    for parser in (run,):
+        parser.add_argument("--mismatch", default="default",
+                            help='plant-vs-controller mismatch: "default", "none" or terms like added_mass*U(0.8,1.2)')
+        parser.add_argument("--seed", type=int, default=0, help="seed of the mismatch draw")
     camp = sub.add_parser("campaign", help="run many scenarios and controllers in worker processes")
     camp.add_argument("--scenarios", default=",".join(SCENARIOS), help="comma-separated names (default: all)")
     camp.add_argument("--controllers", default="switching,mode1-only,braking", help="comma-separated")
     camp.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     camp.add_argument("--out", type=Path, default=Path("out/campaign"), help="folder for results.csv and .md")
     camp.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every scenario")
+    camp.add_argument("--mismatch", default="default", help='as for run: "default", "none" or terms')
+    camp.add_argument("--seeds", type=int, default=1, help="mismatch draws per scenario (seeds 0..N-1)")
     args = ap.parse_args(argv)
     try:
         if args.command == "scenarios":
@@ -75,12 +92,13 @@ def main(argv: list[str] | None = None) -> int:
                     raise ValueError(f"unknown controller {c!r}; allowed: {', '.join(CONTROLLERS)}")
             overrides = _overrides(args.set)
             scenarios = [get(n).with_overrides(overrides) for n in args.scenarios.split(",") if n]
-            rows = campaign(scenarios, controllers, args.workers, args.out)
+            rows = campaign(scenarios, controllers, args.workers, args.out, _mismatch(args.mismatch), args.seeds)
             print(Path(args.out / "results.md").read_text())
             return 0 if all(r.get("verdict") != "error" for r in rows) else 1
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
         from validation.closed_loop import run as run_scenario  # heavy imports only when running
-        summary = run_scenario(scenario, out=args.out, video=args.video, controller=args.controller)
+        summary = run_scenario(scenario, out=args.out, video=args.video, controller=args.controller,
+                               mismatch=_mismatch(args.mismatch), seed=args.seed)
     except ValueError as e:
         print(f"uvms: error: {e}", file=sys.stderr)
         return 2

@@ -26,6 +26,7 @@ from uvms import load_params, load_scene
 from uvms.scene import Current
 from uvms_mj.build import HULL, TIP_GEOM
 from uvms_mj.plant import Plant, PlantSettings, ThrusterFault
+from validation import mismatch as mismatches
 from validation.scenarios import Scenario
 
 WALL_X = 2.0
@@ -67,8 +68,11 @@ CONTROLLERS = ("switching", "mode1-only", "braking")
 
 
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
-        settings: SwitchingSettings | None = None, controller: str = "switching") -> dict:
+        settings: SwitchingSettings | None = None, controller: str = "switching",
+        mismatch: str = mismatches.DEFAULT, seed: int = 0) -> dict:
     """Run one scenario; returns the summary (also written to out/summary.json when out is given).
+    The plant's parameters differ from the controller's by `mismatch` drawn with `seed`
+    (validation.mismatch; "" for none).
 
     `controller`: "switching" (ours), "mode1-only" (the same NMPC without switching: Mode I, with its
     braking fallback when a solve fails) or "braking" (maximum thruster braking with attitude hold,
@@ -84,9 +88,15 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
                 raise ValueError(f"output path {path}: {e.strerror}; allowed: a writable folder") from None
     params, scene = load_params(arm=sc.arm), load_scene()
     scene = scene.with_current(current_profile(sc))
+    drawn = mismatches.draw(mismatch, seed)
+    plant_params, plant_scene, extra_current, unknown_dead = mismatches.apply(params, scene, drawn)
+    profile = scene.current
+    plant_scene = plant_scene.with_current(Current(times=profile.times, velocities=profile.velocities + extra_current))
     model = UVMSModel(params, scene.water)
     h0, ref = initial_state(params, sc)
-    plant = Plant(params, scene, PlantSettings(faults=tuple(ThrusterFault(i, sc.fail_at) for i in sc.failed_thrusters)))
+    faults = tuple(ThrusterFault(i, sc.fail_at) for i in sc.failed_thrusters)
+    faults += tuple(ThrusterFault(i, 0.0) for i in unknown_dead if i not in sc.failed_thrusters)
+    plant = Plant(plant_params, plant_scene, PlantSettings(faults=faults))
     plant.reset(h0)
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
     braking = BrakingPolicy(model)
@@ -151,7 +161,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
     reason = ("the hull never touched an obstacle" if hull_touch == 0.0 else
               f"the hull touched with {hull_touch:.3f} N s of impulse, peak {hull_peak:.0f} N")
     summary = {
-        "scenario": asdict(sc), "controller": controller, "verdict": verdict, "reason": reason,
+        "scenario": asdict(sc), "controller": controller,
+        "mismatch": {"spec": mismatch, "seed": seed, "values": drawn}, "verdict": verdict, "reason": reason,
         "modes": [m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m], "timeline": timeline,
         "min_distance": {g: {p.name: float(min_dist[i, j]) for j, p in enumerate(scene.planes)}
                          for i, g in enumerate(plant.geom_names)},
