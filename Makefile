@@ -1,5 +1,5 @@
 # Two commands do all the set-up on a fresh machine (python3 with venv, no GPU, no display):
-#   make demo   -- create .venv if missing, run the default plant demo into out/
+#   make demo   -- create .venv if missing, run wall-headon in closed loop against MuJoCo into out/
 #   make test   -- create .venv if missing, run ruff and the whole test suite
 PYTHON ?= python3
 VENV := .venv
@@ -16,7 +16,7 @@ $(VENV)/.installed: pyproject.toml
 	touch $@
 
 demo: $(VENV)/.installed
-	$(PY) -m uvms_mj.demo --out out
+	$(VENV)/bin/uvms run wall-headon --seed 1 --video out/wall-headon.mp4 --out out
 
 test: $(VENV)/.installed
 	$(VENV)/bin/ruff check .

@@ -109,6 +109,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
     hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
     min_dist = np.full((len(plant.geom_names), len(scene.planes)), np.inf)
     hull_impulse, hull_peak, ee_peak, steps, failed = np.zeros(3), 0.0, 0.0, [], False
+    link_impulse = np.zeros(3)
     next_frame, wall_clock = 0.0, time.perf_counter()
     try:
         while plant.t < sc.duration - 1e-9:
@@ -131,8 +132,10 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
                 if c.body == HULL:
                     hull_impulse += c.impulse
                     hull_peak = max(hull_peak, c.peak_normal_force)
-                if c.geom == TIP_GEOM:
+                elif c.geom == TIP_GEOM:
                     ee_peak = max(ee_peak, c.peak_normal_force)
+                else:
+                    link_impulse += c.impulse
             steps.append({"t": t, "dt": dt, "mode": info.mode.value, "status": info.status.value,
                           "fallback": info.fallback.value, "solve_time": info.solve_time, "ocp_time": info.ocp_time,
                           "iterations": info.iterations, "horizon": info.horizon} if info else
@@ -168,7 +171,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
                          for i, g in enumerate(plant.geom_names)},
         "min_hull_distance": float(min_dist[hull_geoms].min()) if hull_geoms else None,
         "hull_contact_impulse": hull_touch, "hull_peak_contact_force": hull_peak,
-        "ee_peak_contact_force": ee_peak, "max_total_thrust_along_wall_normal": thrust,
+        "ee_peak_contact_force": ee_peak, "link_contact_impulse": float(np.linalg.norm(link_impulse)),
+        "max_total_thrust_along_wall_normal": thrust,
         "final_task_error": task_error, "final_joint_angles": h[6:6 + n].tolist(),
         "solve_time": per_mode, "fallbacks": sum(s["fallback"] != Fallback.NONE.value for s in steps),
         "simulated_s": plant.t, "wall_clock_s": time.perf_counter() - wall_clock, "steps": steps,
