@@ -1,8 +1,10 @@
 """`uvms`: the testbed's command line.
 
   uvms scenarios                                   list the scenarios, one line each
-  uvms run NAME [--set key=value ...] [--mismatch M] [--seed N] [--controller C] [--out DIR] [--video FILE]
+  uvms run NAME [--set key=value ...] [--mismatch M] [--seed N] [--controller C] [--out DIR]
+               [--video FILE] [--record FILE]
                                                    run one in closed loop against MuJoCo
+  uvms view FILE.rrd                               open a recording in the Rerun viewer
   uvms campaign [--scenarios A,B] [--controllers C,D] [--mismatch M] [--seeds N] [--workers K] [--out DIR]
                                                    run many, with a progress bar and a results table
 """
@@ -24,6 +26,23 @@ def _overrides(pairs: list[str]) -> dict[str, str]:
             raise ValueError(f"override {pair!r} is malformed; allowed: key=value")
         out[key.strip()] = value.strip()
     return out
+
+
+def _view(path: Path) -> int:
+    """Start Rerun's viewer on a recording (the `rerun` executable installed with rerun-sdk)."""
+    import os
+    import shutil
+    import subprocess
+
+    if not path.is_file():
+        raise ValueError(f"recording {path} does not exist; allowed: an .rrd file written by uvms run --record")
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY") or sys.platform == "darwin"):
+        raise ValueError("no display to open the viewer on; allowed: a machine with a display "
+                         f"(or copy {path} to one and run `rerun {path}` there)")
+    viewer = shutil.which("rerun", path=str(Path(sys.executable).parent)) or shutil.which("rerun")
+    if viewer is None:
+        raise ValueError("the rerun executable is missing; allowed: an environment with rerun-sdk installed")
+    return subprocess.call([viewer, str(path)])
 
 
 def _mismatch(text: str) -> str:
@@ -63,11 +82,14 @@ def main(argv: list[str] | None = None) -> int:
                      help="override a scenario setting, e.g. speed=0.5 or current=0.2,0,0")
     run.add_argument("--out", type=Path, default=Path("out"), help="folder for summary.json (default: out)")
     run.add_argument("--video", type=Path, help="write an MP4 rendered headlessly (EGL)")
+    run.add_argument("--record", type=Path, help="write a Rerun recording (.rrd)")
     run.add_argument("--controller", default="switching", help="switching (default), mode1-only or braking")
     for parser in (run,):
         parser.add_argument("--mismatch", default="default",
                             help='plant-vs-controller mismatch: "default", "none" or terms like added_mass*U(0.8,1.2)')
         parser.add_argument("--seed", type=int, default=0, help="seed of the mismatch draw")
+    view = sub.add_parser("view", help="open a recording in the Rerun viewer (needs a display)")
+    view.add_argument("recording", type=Path)
     camp = sub.add_parser("campaign", help="run many scenarios and controllers in worker processes")
     camp.add_argument("--scenarios", default=",".join(SCENARIOS), help="comma-separated names (default: all)")
     camp.add_argument("--controllers", default="switching,mode1-only,braking", help="comma-separated")
@@ -83,6 +105,8 @@ def main(argv: list[str] | None = None) -> int:
             for name, sc in SCENARIOS.items():
                 print(f"{name:<{width}}  {sc.description}")
             return 0
+        if args.command == "view":
+            return _view(args.recording)
         if args.command == "campaign":
             from validation.campaign import campaign
             from validation.closed_loop import CONTROLLERS
@@ -97,13 +121,14 @@ def main(argv: list[str] | None = None) -> int:
             return 0 if all(r.get("verdict") != "error" for r in rows) else 1
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
         from validation.closed_loop import run as run_scenario  # heavy imports only when running
-        summary = run_scenario(scenario, out=args.out, video=args.video, controller=args.controller,
+        summary = run_scenario(scenario, out=args.out, video=args.video, record=args.record, controller=args.controller,
                                mismatch=_mismatch(args.mismatch), seed=args.seed)
     except ValueError as e:
         print(f"uvms: error: {e}", file=sys.stderr)
         return 2
     _print_summary(summary)
-    print(f"wrote {args.out / 'summary.json'}" + (f" and {args.video}" if args.video else ""))
+    written = [args.out / "summary.json", *(p for p in (args.video, args.record) if p)]
+    print("wrote " + ", ".join(str(p) for p in written))
     return 0
 
 

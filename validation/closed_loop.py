@@ -67,7 +67,7 @@ def max_thrust_along(params, direction: np.ndarray) -> float:
 CONTROLLERS = ("switching", "mode1-only", "braking")
 
 
-def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
+def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
         settings: SwitchingSettings | None = None, controller: str = "switching",
         mismatch: str = mismatches.DEFAULT, seed: int = 0) -> dict:
     """Run one scenario; returns the summary (also written to out/summary.json when out is given).
@@ -80,7 +80,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
     if controller not in CONTROLLERS:
         raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
     settings = replace(settings or SwitchingSettings(), switching=controller != "mode1-only")
-    for path in (out, video.parent if video else None):
+    for path in (out, video.parent if video else None, record.parent if record else None):
         if path is not None:
             try:
                 path.mkdir(parents=True, exist_ok=True)
@@ -105,6 +105,10 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
     if video is not None:
         from uvms_mj.render import VideoRecorder
         recorder = VideoRecorder(plant, video, fps=VIDEO_FPS)
+    recording = None
+    if record is not None:
+        from validation.recording import RunRecording
+        recording = RunRecording(record, plant, model, f"{sc.name}-{controller}-{seed}")
     wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
     hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
     min_dist = np.full((len(plant.geom_names), len(scene.planes)), np.inf)
@@ -127,6 +131,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
                 u, info = ctl.step(plant.state(), t)
                 dt = max(ts, round(info.dt / ts) * ts)
             report = plant.step(u, dt)
+            if recording is not None:
+                recording.log(plant.t, report, info, u)
             min_dist = np.minimum(min_dist, report.distances)
             for c in report.contacts:
                 if c.body == HULL:
@@ -147,6 +153,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None,
     finally:
         if recorder is not None:
             recorder.close()
+        if recording is not None:
+            recording.close()
     h = plant.state()
     n = params.n_joints
     task_error = float(np.linalg.norm(h[:3] - ref[:3]))
