@@ -142,3 +142,10 @@ def test_recording_verifies_and_reads_back(tmp_path) -> None:
         assert expected in paths, expected
     rows = sum(c.num_rows for c in chunks if c.entity_path == "/telemetry/solver/solve_time")
     assert rows == len(s["steps"]) == 5
+
+
+def test_plots_are_written(tmp_path) -> None:
+    """--plots writes the control-input, state and contact figures as PNG files."""
+    run(replace(get("avoid-wall"), duration=0.3), plots=tmp_path)
+    for name in ("control_inputs.png", "states.png", "contact.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -2,7 +2,7 @@
 
   uvms scenarios                                   list the scenarios, one line each
   uvms run NAME [--set key=value ...] [--mismatch M] [--seed N] [--controller C] [--out DIR]
-               [--video FILE] [--record FILE]
+               [--video FILE] [--record FILE] [--plots DIR]
                                                    run one in closed loop against MuJoCo
   uvms view FILE.rrd                               open a recording in the Rerun viewer
   uvms campaign [--scenarios A,B] [--controllers C,D] [--mismatch M] [--seeds N] [--workers K] [--out DIR]
@@ -83,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--out", type=Path, default=Path("out"), help="folder for summary.json (default: out)")
     run.add_argument("--video", type=Path, help="write an MP4 rendered headlessly (EGL)")
     run.add_argument("--record", type=Path, help="write a Rerun recording (.rrd)")
+    run.add_argument("--plots", type=Path, help="folder for telemetry figures (PNG)")
     run.add_argument("--controller", default="switching", help="switching (default), mode1-only or braking")
     for parser in (run,):
         parser.add_argument("--mismatch", default="default",
@@ -121,13 +122,14 @@ def main(argv: list[str] | None = None) -> int:
             return 0 if all(r.get("verdict") != "error" for r in rows) else 1
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
         from validation.closed_loop import run as run_scenario  # heavy imports only when running
-        summary = run_scenario(scenario, out=args.out, video=args.video, record=args.record, controller=args.controller,
+        summary = run_scenario(scenario, out=args.out, video=args.video, record=args.record, plots=args.plots,
+                               controller=args.controller,
                                mismatch=_mismatch(args.mismatch), seed=args.seed)
     except ValueError as e:
         print(f"uvms: error: {e}", file=sys.stderr)
         return 2
     _print_summary(summary)
-    written = [args.out / "summary.json", *(p for p in (args.video, args.record) if p)]
+    written = [args.out / "summary.json", *(p for p in (args.video, args.record, args.plots) if p)]
     print("wrote " + ", ".join(str(p) for p in written))
     return 0
 

@@ -68,6 +68,7 @@ CONTROLLERS = ("switching", "mode1-only", "braking")
 
 
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
+        plots: Path | None = None,
         settings: SwitchingSettings | None = None, controller: str = "switching",
         mismatch: str = mismatches.DEFAULT, seed: int = 0) -> dict:
     """Run one scenario; returns the summary (also written to out/summary.json when out is given).
@@ -80,7 +81,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     if controller not in CONTROLLERS:
         raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
     settings = replace(settings or SwitchingSettings(), switching=controller != "mode1-only")
-    for path in (out, video.parent if video else None, record.parent if record else None):
+    for path in (out, video.parent if video else None, record.parent if record else None, plots):
         if path is not None:
             try:
                 path.mkdir(parents=True, exist_ok=True)
@@ -114,6 +115,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     min_dist = np.full((len(plant.geom_names), len(scene.planes)), np.inf)
     hull_impulse, hull_peak, ee_peak, steps, failed = np.zeros(3), 0.0, 0.0, [], False
     link_impulse = np.zeros(3)
+    telemetry: dict[str, list] = {k: [] for k in ("t", "u", "h", "hull_distance", "tip_distance", "tip_force")}
+    tip = plant.geom_names.index(TIP_GEOM) if TIP_GEOM in plant.geom_names else None
     next_frame, wall_clock = 0.0, time.perf_counter()
     try:
         while plant.t < sc.duration - 1e-9:
@@ -134,6 +137,13 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
             if recording is not None:
                 recording.log(plant.t, report, info, u)
             min_dist = np.minimum(min_dist, report.distances)
+            telemetry["t"].append(t)
+            telemetry["u"].append(report.u_applied)
+            telemetry["h"].append(report.h)
+            telemetry["hull_distance"].append(float(report.distances[hull_geoms, wall].min()))
+            telemetry["tip_distance"].append(float(report.distances[tip, wall]) if tip is not None else np.nan)
+            telemetry["tip_force"].append(max((c.peak_normal_force for c in report.contacts if c.geom == TIP_GEOM),
+                                              default=0.0))
             for c in report.contacts:
                 if c.body == HULL:
                     hull_impulse += c.impulse
@@ -187,4 +197,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     }
     if out is not None:
         (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    if plots is not None:
+        from validation import plots as figures
+        names = {"thrusters": [th.name for th in params.thrusters], "joints": [lk.name for lk in params.arm.links]}
+        figures.write({k: np.asarray(v) for k, v in telemetry.items()}, modes, names, plots)
     return summary
