@@ -27,6 +27,7 @@ bench: $(VENV)/.installed
 	$(PY) bench/plant_speed.py
 	$(PY) bench/model_eval.py
 	$(PY) bench/nmpc_modes.py
+	$(PY) bench/closed_loop_rtf.py
 
 assets: $(VENV)/.installed
 	$(PY) -m uvms_mj.export
