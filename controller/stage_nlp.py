@@ -87,7 +87,8 @@ def compiled(functions: list[ca.Function], name: str) -> dict[str, ca.Function]:
         subprocess.run(["gcc", "-O1", "-fPIC", "-shared", str(c), "-o", str(tmp_so)], check=True)
         tmp_so.replace(so)  # atomic: parallel runs never load a half-written file
         c.unlink()
-    return {f.name(): ca.external(f.name(), str(so)) for f in functions}
+    # finite differences only so that CasADi can build (never evaluate) derivative functions
+    return {f.name(): ca.external(f.name(), str(so), {"enable_fd": True}) for f in functions}
 
 
 def build_solver(problem: StageProblem, name: str, ipopt_options: dict) -> ca.Function:
@@ -102,6 +103,7 @@ def build_solver(problem: StageProblem, name: str, ipopt_options: dict) -> ca.Fu
     c = pr.constraints(s, p)
     cost = pr.cost(s, p)
     fns = [
+        ca.Function(f"{name}_g", [s, p], [c]),
         ca.Function(f"{name}_jac", [s, p], [c, ca.jacobian(c, s)]),
         ca.Function(f"{name}_grad", [s, p], [cost, ca.gradient(cost, s)]),
         ca.Function(f"{name}_hess", [s, p, lam_f, lam_c], [ca.hessian(lam_f * cost + ca.dot(lam_c, c), s)[0]]),
@@ -111,6 +113,7 @@ def build_solver(problem: StageProblem, name: str, ipopt_options: dict) -> ca.Fu
     tf = pr.terminal_cost(x, pg) if pr.terminal_cost is not None else ca.SX(0)
     lam_t = ca.SX.sym("lam_t", nt)
     fns += [
+        ca.Function(f"{name}_tg", [x, pg], [tc]),
         ca.Function(f"{name}_tjac", [x, pg], [tc, ca.jacobian(tc, x)]),
         ca.Function(f"{name}_tgrad", [x, pg], [tf, ca.gradient(tf, x)]),
         ca.Function(f"{name}_thess", [x, pg, lam_f, lam_t], [ca.hessian(lam_f * tf + ca.dot(lam_t, tc), x)[0]]),
@@ -120,10 +123,11 @@ def build_solver(problem: StageProblem, name: str, ipopt_options: dict) -> ca.Fu
     S = ca.horzcat(*[w[k * nz:k * nz + ns] for k in range(N)])
     Pk = ca.vertcat(ca.repmat(P[:pr.np], 1, N), ca.reshape(P[pr.np:], pr.np_stage, N))
     xN = w[N * nz:]
-    # f and g through the SX functions (differentiable by CasADi, for the final multiplier pass);
-    # every iteration's derivatives come from the compiled callbacks below.
-    g = ca.vertcat(w[:pr.nf] - P[:pr.nf], ca.vec(pr.constraints.map(N)(S, Pk)),
-                   pr.terminal_constraints(xN, P[:pr.np]) if nt else ca.MX(0, 1))
+    # g through the compiled stage functions too (the SX map evaluated interpreted took 1 ms a
+    # call); f through the SX functions (cheap). CasADi never differentiates them: every
+    # derivative comes from the compiled callbacks below (and calc_lam_p is off).
+    g = ca.vertcat(w[:pr.nf] - P[:pr.nf], ca.vec(fn[f"{name}_g"].map(N)(S, Pk)),
+                   fn[f"{name}_tg"](xN, P[:pr.np]) if nt else ca.MX(0, 1))
     f = ca.sum2(pr.cost.map(N)(S, Pk)) + (pr.terminal_cost(xN, P[:pr.np]) if pr.terminal_cost is not None else 0)
 
     def place(block: ca.MX, k: int, width: int) -> ca.MX:
@@ -154,5 +158,6 @@ def build_solver(problem: StageProblem, name: str, ipopt_options: dict) -> ca.Fu
     hess_lag = ca.Function("nlp_hess_l", [w, P, lf, lg], [ca.triu(hess)], ["x", "p", "lam_f", "lam_g"],
                            ["triu_hess_gamma_x_x"])
     return ca.nlpsol(name, "ipopt", {"x": w, "p": P, "f": f, "g": g},
-                     {"jac_g": jac_g, "grad_f": grad_f, "hess_lag": hess_lag, "print_time": False,
+                     {"jac_g": jac_g, "grad_f": grad_f, "hess_lag": hess_lag, "print_time": False, "calc_lam_p": False,
+                      "calc_lam_x": False,
                       "ipopt": ipopt_options})
