@@ -12,7 +12,8 @@ from controller.mode1 import SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.model import UVMSModel
 from controller.transcription import clearances, tip_gap
-from validation.kane_closed_loop import initial_state
+from validation.closed_loop import initial_state
+from validation.scenarios import Scenario
 
 
 @pytest.mark.parametrize(("N", "dt", "expected"), [(20, 0.05, 10), (10, 0.074, 7), (2, 0.1, 1), (2, 0.03, 1),
@@ -41,7 +42,7 @@ def test_plan_touches_the_wall_at_its_end_and_the_model_agrees(params, scene) ->
     at dt <= 0.1 s on a swinging arm; measured 1.2 mm and 1.2 mm over a 3-interval plan)."""
     model = UVMSModel(params, scene.water)
     current = np.array([0.15, 0.0, 0.0])
-    h0, _ = initial_state(params, 0.35, 0.2)
+    h0, _ = initial_state(params, Scenario("approach", "", gap=0.35, speed=0.2))
     settings = ModeIISettings()
     ocp = ModeIIOCP(model, scene.planes, 0, settings)
     lo, hi = params.input_bounds()

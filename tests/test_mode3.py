@@ -11,7 +11,8 @@ from controller.mode3 import ModeIIIOCP, ModeIIISettings
 from controller.model import UVMSModel
 from controller.rollouts import ReachPosture
 from controller.transcription import tip_gap
-from validation.kane_closed_loop import initial_state
+from validation.closed_loop import initial_state
+from validation.scenarios import Scenario
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +23,7 @@ def contact_case(params, scene):
     lo, hi = params.input_bounds()
     lo[:8] = hi[:8] = 0.0
     ocp.limit_inputs(lo, hi)
-    h, _ = initial_state(params, 0.35, 0.3)
+    h, _ = initial_state(params, Scenario("approach", "", gap=0.35, speed=0.3))
     n = params.n_joints
     h[6:6 + n] = ReachPosture(model, scene.planes[0])(h)
     h[6:6 + n] = ocp.onto_plane(h)

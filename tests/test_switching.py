@@ -11,12 +11,14 @@ import pytest
 from controller.mode1 import ModeISettings, SolverStatus
 from controller.model import UVMSModel
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
-from validation.kane_closed_loop import SCENARIOS, initial_state, run
+from validation.closed_loop import initial_state
+from validation.kane_closed_loop import SCENARIOS, run
+from validation.scenarios import Scenario
 
 
 def test_bad_state_is_rejected_in_one_line(params, scene) -> None:
     model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, 1.0, 0.0)
+    h, ref = initial_state(params, Scenario("rest", "", gap=1.0, speed=0.0))
     ctl = SwitchingNMPC(model, scene.planes, ref)
     bad = h.copy()
     bad[0] = np.nan
@@ -31,7 +33,7 @@ def test_solver_failure_falls_back_to_braking_within_bounds(params, scene) -> No
     failure and the fallback and returns maximum braking (the certificate's rollout input): finite,
     within the input bounds, with surge thrust against the motion."""
     model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, 1.0, 0.3)
+    h, ref = initial_state(params, Scenario("approach", "", gap=1.0, speed=0.3))
     settings = SwitchingSettings(mode1=ModeISettings(max_iter=1))
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
     u, info = ctl.step(h, 0.0)

@@ -23,7 +23,8 @@ from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
 from uvms import load_params, load_scene
-from uvms.scene import Current
+from uvms.params import UVMSParams
+from uvms.scene import Current, Scene
 from uvms_mj.build import HULL, TIP_GEOM
 from uvms_mj.plant import Plant, PlantSettings, ThrusterFault
 from validation import mismatch as mismatches
@@ -64,6 +65,20 @@ def max_thrust_along(params, direction: np.ndarray) -> float:
     return float(np.sum(np.where(proj > 0, hi[:nt] * proj, lo[:nt] * proj)))
 
 
+def build_plant(sc: Scenario, mismatch: str, seed: int) -> tuple[UVMSParams, Scene, Plant, dict[str, float]]:
+    """The controller's parameters and scene (the files, the scenario's known current) and the
+    plant drawn from the mismatch (with its unknown current and dead thrusters), plus the draw."""
+    params, scene = load_params(arm=sc.arm), load_scene()
+    scene = scene.with_current(current_profile(sc))
+    drawn = mismatches.draw(mismatch, seed)
+    plant_params, plant_scene, extra_current, unknown_dead = mismatches.apply(params, scene, drawn)
+    profile = scene.current
+    plant_scene = plant_scene.with_current(Current(times=profile.times, velocities=profile.velocities + extra_current))
+    faults = tuple(ThrusterFault(i, sc.fail_at) for i in sc.failed_thrusters)
+    faults += tuple(ThrusterFault(i, 0.0) for i in unknown_dead if i not in sc.failed_thrusters)
+    return params, scene, Plant(plant_params, plant_scene, PlantSettings(faults=faults)), drawn
+
+
 CONTROLLERS = ("switching", "mode1-only", "braking")
 
 
@@ -87,17 +102,9 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
                 path.mkdir(parents=True, exist_ok=True)
             except OSError as e:
                 raise ValueError(f"output path {path}: {e.strerror}; allowed: a writable folder") from None
-    params, scene = load_params(arm=sc.arm), load_scene()
-    scene = scene.with_current(current_profile(sc))
-    drawn = mismatches.draw(mismatch, seed)
-    plant_params, plant_scene, extra_current, unknown_dead = mismatches.apply(params, scene, drawn)
-    profile = scene.current
-    plant_scene = plant_scene.with_current(Current(times=profile.times, velocities=profile.velocities + extra_current))
+    params, scene, plant, drawn = build_plant(sc, mismatch, seed)
     model = UVMSModel(params, scene.water)
     h0, ref = initial_state(params, sc)
-    faults = tuple(ThrusterFault(i, sc.fail_at) for i in sc.failed_thrusters)
-    faults += tuple(ThrusterFault(i, 0.0) for i in unknown_dead if i not in sc.failed_thrusters)
-    plant = Plant(plant_params, plant_scene, PlantSettings(faults=faults))
     plant.reset(h0)
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
     braking = BrakingPolicy(model)

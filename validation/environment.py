@@ -19,12 +19,10 @@ from dm_control.rl import control
 from dm_control.utils import rewards
 from dm_env import specs
 
-from uvms import load_params, load_scene
-from uvms.scene import Current
 from uvms_mj.build import HULL
-from uvms_mj.plant import Plant, PlantReport, PlantSettings, ThrusterFault
+from uvms_mj.plant import Plant, PlantReport
 from validation import mismatch as mismatches
-from validation.closed_loop import current_profile, initial_state
+from validation.closed_loop import build_plant, initial_state
 from validation.scenarios import Scenario, get
 
 
@@ -80,14 +78,7 @@ def load(scenario: str | Scenario = "wall-headon", mismatch: str = mismatches.DE
          control_timestep: float = 0.1) -> control.Environment:
     """The environment of a scenario (name or Scenario), with the plant drawn from `mismatch`."""
     sc = get(scenario) if isinstance(scenario, str) else scenario
-    params, scene = load_params(arm=sc.arm), load_scene()
-    scene = scene.with_current(current_profile(sc))
-    plant_params, plant_scene, extra, dead = mismatches.apply(params, scene, mismatches.draw(mismatch, seed))
-    profile = scene.current
-    plant_scene = plant_scene.with_current(Current(times=profile.times, velocities=profile.velocities + extra))
-    faults = tuple(ThrusterFault(i, sc.fail_at) for i in sc.failed_thrusters)
-    faults += tuple(ThrusterFault(i, 0.0) for i in dead if i not in sc.failed_thrusters)
-    plant = Plant(plant_params, plant_scene, PlantSettings(faults=faults))
+    params, _, plant, _ = build_plant(sc, mismatch, seed)
     h0, ref = initial_state(params, sc)
     return control.Environment(PlantPhysics.from_plant(plant), WallTask(sc, params, h0, ref),
                                time_limit=sc.duration, control_timestep=control_timestep)
