@@ -53,6 +53,7 @@ class Certificate:
     rollout_clearance: float  # m: smallest clearance minus margin along the braking rollout
     solve_time: float  # s
     solution: OCPSolution | None  # the minimum-violation solution, when solved
+    rollout: np.ndarray  # (N+1, ns) the braking rollout's states
 
 
 class FeasibilityTest:
@@ -84,8 +85,9 @@ class FeasibilityTest:
         clearance = min(float(np.asarray(self.problem._clearance(h)).min()) for h in hs[1:])
         margin = clearance - self.settings.distance_margin
         if margin >= 0:
-            return Certificate(Verdict.FEASIBLE, Method.BRAKING_ROLLOUT, 0.0, margin, time.perf_counter() - t0, None)
+            return Certificate(Verdict.FEASIBLE, Method.BRAKING_ROLLOUT, 0.0, margin, time.perf_counter() - t0, None,
+                               hs)
         sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
         violation = float(np.sum(sol.slack)) if sol.status.usable else np.inf
         verdict = Verdict.FEASIBLE if violation <= self.tolerance else Verdict.INFEASIBLE
-        return Certificate(verdict, Method.MINIMUM_VIOLATION, violation, margin, time.perf_counter() - t0, sol)
+        return Certificate(verdict, Method.MINIMUM_VIOLATION, violation, margin, time.perf_counter() - t0, sol, hs)

@@ -146,9 +146,8 @@ class SwitchingNMPC:
         dd = [np.asarray(self.model.closing_speeds(h, pl.normal, pl.offset)).ravel() for pl in self.planes]
         return np.array(d), np.array(dd)
 
-    def _closest_plane(self, h: np.ndarray) -> int:
-        """The plane the braking rollout comes closest to (smallest body clearance over the horizon)."""
-        hs, _ = self.feasibility.braking_rollout(h, self.current)
+    def _closest_plane(self, hs: np.ndarray) -> int:
+        """The plane a rollout (states (K, ns)) comes closest to (smallest body clearance)."""
         worst = [min(float(np.min(np.asarray(self.model.distances(x, pl.normal, pl.offset)))) for x in hs)
                  for pl in self.planes]
         return int(np.argmin(worst))
@@ -201,7 +200,7 @@ class SwitchingNMPC:
         ref = np.asarray(self.reference(t), float)
         cert = self.feasibility(h, ref, self.current) if self.settings.switching else None
         if cert is not None and cert.verdict is Verdict.INFEASIBLE:
-            self.contact = self._closest_plane(h)
+            self.contact = self._closest_plane(cert.rollout)
             self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
             return self._step_mode2(h, cert)
         self._reported_mode = Mode.I
