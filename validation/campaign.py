@@ -76,9 +76,15 @@ def markdown(rows: list[dict]) -> str:
             "ee_peak_contact_force", "link_contact_impulse", "fallbacks")
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     lines += ["| " + " | ".join(_fmt(r.get(c, "")) for c in cols) + " |" for r in rows]
-    ok = {}
-    for r in rows:
-        ok.setdefault(r["controller"], []).append(r.get("verdict") == "success")
-    lines += ["", "| controller | success rate |", "|---|---|"]
-    lines += [f"| {c} | {sum(v)}/{len(v)} |" for c, v in ok.items()]
+    controllers = list(dict.fromkeys(r["controller"] for r in rows))
+    families = list(dict.fromkeys(r["scenario"] for r in rows))
+
+    def rate(sel: list[dict]) -> str:
+        return f"{sum(r.get('verdict') == 'success' for r in sel)}/{len(sel)}"
+
+    lines += ["", "Success (zero hull contact impulse) per scenario family:", "",
+              "| scenario | " + " | ".join(controllers) + " |", "|" + "---|" * (len(controllers) + 1)]
+    lines += [f"| {f} | " + " | ".join(rate([r for r in rows if r["scenario"] == f and r["controller"] == c])
+                                       for c in controllers) + " |" for f in families]
+    lines += ["| all | " + " | ".join(rate([r for r in rows if r["controller"] == c]) for c in controllers) + " |"]
     return "\n".join(lines) + "\n"
