@@ -146,17 +146,6 @@ class ModeIIOCP:
             us.append(u)
         return np.array(hs), np.array(us), dt
 
-    def resimulate(self, h0: np.ndarray, u: np.ndarray, dt: float, current: np.ndarray | None = None) -> np.ndarray:
-        """The state trajectory (N+1, ns) of inputs u (N, nu) from h0 by the model's RK4 (paper:
-        Final Algorithm)."""
-        hs = [np.asarray(h0, float)]
-        for uk in u:
-            h = hs[-1]
-            for _ in range(4):
-                h = self.model.step(h, uk, dt / 4, vc=current)
-            hs.append(h)
-        return np.array(hs)
-
     def pack(self, hs: np.ndarray, us: np.ndarray, dt: float) -> np.ndarray:
         N, nv = len(us), self.nv
         blocks = [np.concatenate([hs[k], [dt], us[k], (hs[k + 1, -nv:] - hs[k, -nv:]) / dt]) for k in range(N)]

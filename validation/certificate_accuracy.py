@@ -20,8 +20,8 @@ import numpy as np
 from controller.feasibility import FeasibilityTest, Verdict
 from controller.model import UVMSModel
 from uvms import load_params, load_scene
+from validation.closed_loop import wall_x
 
-WALL_X = 2.0
 FACTORS = (0.5, 0.8, 0.9, 1.1, 1.25, 1.5)
 OUT = Path(__file__).resolve().parent.parent / "bench" / "results"
 
@@ -41,12 +41,12 @@ class Case:
 def approach(params, gap: float, angle: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
     n = params.n_joints
     h = np.zeros(params.n_states)
-    h[0] = WALL_X - params.hull.superellipsoid.semi_axes[0] - gap
+    h[0] = wall_x() - params.hull.superellipsoid.semi_axes[0] - gap
     h[6:6 + n] = params.arm.stowed
     a = np.radians(angle)
     h[6 + n:8 + n] = speed * np.array([np.cos(a), np.sin(a)])
     ref = h.copy()
-    ref[0], ref[6 + n:12 + n] = WALL_X - 1.0, 0.0
+    ref[0], ref[6 + n:12 + n] = wall_x() - 1.0, 0.0
     return h, ref
 
 

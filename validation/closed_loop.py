@@ -30,7 +30,10 @@ from uvms_mj.plant import Plant, PlantSettings, ThrusterFault
 from validation import mismatch as mismatches
 from validation.scenarios import Scenario
 
-WALL_X = 2.0
+
+def wall_x() -> float:
+    """x [m] of the default scene's wall (read from the scene file: numbers live there once)."""
+    return float(next(p for p in load_scene().planes if p.name == "wall").point[0])
 VIDEO_FPS = 25
 
 
@@ -39,14 +42,14 @@ def initial_state(params, sc: Scenario) -> tuple[np.ndarray, np.ndarray]:
     n = params.n_joints
     if sc.posture not in ("stowed", "home"):
         raise ValueError(f"posture {sc.posture!r}; allowed: stowed, home")
-    front = params.hull.superellipsoid.semi_axes[0]
+    front, wall = params.hull.superellipsoid.semi_axes[0], wall_x()
     h = np.zeros(params.n_states)
-    h[0], h[2] = WALL_X - front - sc.gap, sc.depth
+    h[0], h[2] = wall - front - sc.gap, sc.depth
     h[6:6 + n] = params.arm.stowed if sc.posture == "stowed" else params.arm.home
     a = np.radians(sc.angle)
     h[6 + n:9 + n] = [sc.speed * np.cos(a), sc.speed * np.sin(a), -sc.sink]
     ref = h.copy()
-    ref[0], ref[6 + n:] = WALL_X - front - sc.target_gap, 0.0
+    ref[0], ref[6 + n:] = wall - front - sc.target_gap, 0.0
     return h, ref
 
 
