@@ -19,11 +19,13 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from enum import Enum
 
 import casadi as ca
 import numpy as np
 
 from controller.model import UVMSModel
+from controller.sqp import SQPSettings, StageSQP
 from controller.stage_nlp import StageProblem, build_solver
 from controller.transcription import SolverStatus, clearances, ipopt_status, midpoint_residual
 from uvms.scene import Plane
@@ -32,6 +34,17 @@ from uvms.scene import Plane
 def _default_state_weights(n_joints: int) -> tuple[float, ...]:
     """Position 10, attitude 5 (roll, pitch) and 5 (yaw), joints 1; velocities 1, joint rates 0.1."""
     return (10.0,) * 3 + (5.0,) * 3 + (1.0,) * n_joints + (1.0,) * 6 + (0.1,) * n_joints
+
+
+class Solver(Enum):
+    """How Mode I's NLP is solved. SQP (default): Gauss-Newton SQP with HPIPM's structure-exploiting
+    QP on the compiled stage blocks (controller.sqp); by default one iteration per control period,
+    the real-time iteration (its budget: `sqp.max_iter`). IPOPT: interior point to convergence,
+    exact Hessian, the same compiled blocks (or one SX NLP with compiled=False); the feasibility
+    certificate's minimum-violation problem always uses it."""
+
+    IPOPT = "ipopt"
+    SQP = "sqp"
 
 
 @dataclass(frozen=True)
@@ -43,14 +56,18 @@ class ModeISettings:
     state_weights: tuple[float, ...] | None = None  # None: _default_state_weights
     input_weight: float = 1e-3  # 1/N^2 and 1/(N m)^2
     distance_margin: float = 0.02  # m
-    max_iter: int = 100
-    tol: float = 1e-6
+    max_iter: int = 100  # IPOPT
+    tol: float = 1e-6  # IPOPT
     compiled: bool = True  # per-stage derivatives compiled to C (controller.stage_nlp); False: one SX NLP
     ipopt_options: dict = field(default_factory=dict)
+    solver: Solver = Solver.SQP
+    sqp: SQPSettings = field(default_factory=SQPSettings)
 
     def __post_init__(self) -> None:
         if self.horizon < 1 or self.dt <= 0:
             raise ValueError(f"horizon {self.horizon}, dt {self.dt} s: allowed: horizon >= 1, dt > 0")
+        if self.solver is Solver.SQP and not self.compiled:
+            raise ValueError("solver SQP needs compiled=True (it runs on the compiled stage derivatives)")
 
 
 @dataclass(frozen=True)
@@ -68,6 +85,7 @@ class OCPSolution:
     w: np.ndarray  # raw primal vector
     lam_g: np.ndarray  # constraint multipliers (warm start)
     lam_x: np.ndarray  # bound multipliers (warm start)
+    violation: float = float("nan")  # largest constraint violation of the returned iterate (m, N, N m)
 
 
 class ModeIOCP:
@@ -112,7 +130,11 @@ class ModeIOCP:
                                    constraints=stage_constraints)
             kind = "minviol" if min_violation else "mode1"
             self.solver = build_solver(problem, f"{kind}_{p.name}_{p.arm.name}", ipopt)
+            use_sqp = settings.solver is Solver.SQP and not min_violation  # (slacks: IPOPT)
+            self.sqp = StageSQP(problem, f"{kind}_{p.name}_{p.arm.name}", n_alg=nv,
+                                settings=settings.sqp) if use_sqp else None
         else:
+            self.sqp = None
             w, Pn = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + 3)
             stages = [w[k * self._nz:(k + 1) * self._nz + ns] for k in range(N)]
             J = sum(stage_cost(sk, Pn) for sk in stages)
@@ -187,16 +209,25 @@ class ModeIOCP:
         w0, lam_g, lam_x = self.initial_guess(np.asarray(h0, float), previous)
         if guess is not None:
             w0 = guess
-        args = {"x0": w0, "p": np.concatenate([h0, h_ref, np.zeros(3) if current is None else current]),
-                "lbx": self.lbw, "ubx": self.ubw, "lbg": self.lbg, "ubg": self.ubg}
+        P = np.concatenate([h0, h_ref, np.zeros(3) if current is None else current])
+        if self.sqp is not None:
+            res = self.sqp.solve(w0, P, self.lbw, self.ubw, self.lbg[self.ns:], self.ubg[self.ns:])
+            return self._solution(res.w, res.status, res.solve_time, res.iterations, res.cost,
+                                  np.zeros(len(self.lbg)), np.zeros(len(w0)), res.violation)
+        args = {"x0": w0, "p": P, "lbx": self.lbw, "ubx": self.ubw, "lbg": self.lbg, "ubg": self.ubg}
         if lam_g is not None:
             args.update(lam_g0=lam_g, lam_x0=lam_x)
         t0 = time.perf_counter()
         r = self.solver(**args)
         elapsed = time.perf_counter() - t0
         st = self.solver.stats()
-        status = ipopt_status(st)
-        w = np.asarray(r["x"]).ravel()
+        inf_pr = st.get("iterations", {}).get("inf_pr", [np.nan])
+        return self._solution(np.asarray(r["x"]).ravel(), ipopt_status(st), elapsed, int(st["iter_count"]),
+                              float(r["f"]), np.asarray(r["lam_g"]).ravel(), np.asarray(r["lam_x"]).ravel(),
+                              float(inf_pr[-1]) if inf_pr else np.nan)
+
+    def _solution(self, w: np.ndarray, status: SolverStatus, elapsed: float, iterations: int, cost: float,
+                  lam_g: np.ndarray, lam_x: np.ndarray, violation: float) -> OCPSolution:
         N, nz, ns, nu = self.settings.horizon, self._nz, self.ns, self.nu
         return OCPSolution(
             status=status,
@@ -204,5 +235,4 @@ class ModeIOCP:
             u=np.array([w[k * nz + ns:k * nz + ns + nu] for k in range(N)]),
             a=np.array([w[k * nz + ns + nu:k * nz + ns + nu + self.nv] for k in range(N)]),
             slack=np.array([w[k * nz + ns + nu + self.nv:(k + 1) * nz] for k in range(N)]),
-            solve_time=elapsed, iterations=int(st["iter_count"]), cost=float(r["f"]), w=w,
-            lam_g=np.asarray(r["lam_g"]).ravel(), lam_x=np.asarray(r["lam_x"]).ravel())
+            solve_time=elapsed, iterations=iterations, cost=cost, w=w, lam_g=lam_g, lam_x=lam_x, violation=violation)

@@ -91,12 +91,14 @@ def compiled(functions: list[ca.Function], name: str) -> dict[str, ca.Function]:
     return {f.name(): ca.external(f.name(), str(so), {"enable_fd": True}) for f in functions}
 
 
-def build_solver(problem: StageProblem, name: str, ipopt_options: dict) -> ca.Function:
-    """IPOPT on the stage problem with compiled, block-assembled derivatives. The compiled code
-    depends on the stage and terminal functions only, not on the horizon: problems that differ in
-    N alone share one shared object (Mode II's variable horizon)."""
+def stage_functions(problem: StageProblem, name: str) -> dict[str, ca.Function]:
+    """The per-stage and terminal functions, compiled (`compiled`): {name}_g (c), _jac (c, dc/ds),
+    _grad (cost, its gradient), _hess (Hessian of lam_f cost + lam_c.c in s) and the terminal
+    _tg, _tjac, _tgrad, _thess. The code depends on the stage and terminal functions only, not on
+    the horizon: problems that differ in N alone share one shared object (Mode II's variable
+    horizon)."""
     pr = problem
-    nx, nv, N, nz = pr.nx, pr.nv, pr.horizon, pr.nx + pr.nv
+    nx, nv = pr.nx, pr.nv
     ns, npk = 2 * nx + nv, pr.np + pr.np_stage
     s, p, x, pg = ca.SX.sym("s", ns), ca.SX.sym("p", npk), ca.SX.sym("x", nx), ca.SX.sym("pg", pr.np)
     lam_f, lam_c = ca.SX.sym("lam_f"), ca.SX.sym("lam_c", pr.nc)
@@ -118,7 +120,15 @@ def build_solver(problem: StageProblem, name: str, ipopt_options: dict) -> ca.Fu
         ca.Function(f"{name}_tgrad", [x, pg], [tf, ca.gradient(tf, x)]),
         ca.Function(f"{name}_thess", [x, pg, lam_f, lam_t], [ca.hessian(lam_f * tf + ca.dot(lam_t, tc), x)[0]]),
     ]
-    fn = compiled(fns, name)
+    return compiled(fns, name)
+
+
+def build_solver(problem: StageProblem, name: str, ipopt_options: dict) -> ca.Function:
+    """IPOPT on the stage problem with compiled, block-assembled derivatives (`stage_functions`)."""
+    pr = problem
+    nx, nv, N, nz = pr.nx, pr.nv, pr.horizon, pr.nx + pr.nv
+    ns, nt = 2 * nx + nv, pr.n_terminal
+    fn = stage_functions(pr, name)
     w, P = ca.MX.sym("w", pr.n_w), ca.MX.sym("P", pr.n_p)
     S = ca.horzcat(*[w[k * nz:k * nz + ns] for k in range(N)])
     Pk = ca.vertcat(ca.repmat(P[:pr.np], 1, N), ca.reshape(P[pr.np:], pr.np_stage, N))

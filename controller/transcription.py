@@ -20,18 +20,22 @@ from uvms.scene import Plane
 
 
 class SolverStatus(Enum):
-    """Outcome of one OCP solve. FEASIBLE: IPOPT stopped at its iteration cap on an iterate that
-    satisfies every constraint (violation below FEASIBLE_VIOLATION): a usable, suboptimal plan."""
+    """Outcome of one OCP solve. FEASIBLE: the solver stopped at its iteration cap on an iterate
+    that satisfies every constraint (violation below FEASIBLE_VIOLATION): a usable, suboptimal
+    plan. REAL_TIME: the SQP's real-time iteration (controller.sqp) stopped at its iteration
+    budget after a successful QP: the plan satisfies the constraints linearized at the warm start,
+    not yet the nonlinear ones (its violation is in the result): usable, as in RTI schemes."""
 
     SUCCESS = "success"
     FEASIBLE = "feasible, not optimal"
+    REAL_TIME = "real-time iterate"
     MAX_ITER = "max_iter"
     INFEASIBLE = "infeasible"
     FAILED = "failed"
 
     @property
     def usable(self) -> bool:
-        return self in (SolverStatus.SUCCESS, SolverStatus.FEASIBLE)
+        return self in (SolverStatus.SUCCESS, SolverStatus.FEASIBLE, SolverStatus.REAL_TIME)
 
 
 FEASIBLE_VIOLATION = 1e-5  # largest constraint violation (m, N, N m) of a usable iterate at the iteration cap

@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controller.mode1 import ModeIOCP, ModeISettings, SolverStatus
+from controller.mode1 import ModeIOCP, ModeISettings, Solver, SolverStatus
 from controller.model import UVMSModel
+from controller.sqp import SQPSettings
 
 
 def approach(params, speed: float = 0.3, target: float = 1.8) -> tuple[np.ndarray, np.ndarray]:
@@ -28,7 +29,8 @@ def test_compiled_stage_derivatives_give_the_expanded_solution(params, scene) ->
     trajectories within 1e-6 and costs within 1e-8 relative (both solved to IPOPT tol 1e-9)."""
     model = UVMSModel(params, scene.water)
     h, ref = approach(params)
-    sols = [ModeIOCP(model, scene.planes, ModeISettings(compiled=c, tol=1e-9)).solve(h, ref) for c in (True, False)]
+    sols = [ModeIOCP(model, scene.planes, ModeISettings(compiled=c, tol=1e-9, solver=Solver.IPOPT)).solve(h, ref)
+            for c in (True, False)]
     assert all(s.status is SolverStatus.SUCCESS for s in sols)
     np.testing.assert_allclose(sols[0].h, sols[1].h, atol=1e-6)
     np.testing.assert_allclose(sols[0].u, sols[1].u, atol=1e-6 * np.abs(sols[1].u).max())
@@ -36,23 +38,45 @@ def test_compiled_stage_derivatives_give_the_expanded_solution(params, scene) ->
 
 
 @pytest.mark.slow
-def test_avoidable_approach_stays_clear_and_settles(params, scene) -> None:
+def test_sqp_reaches_the_interior_point_optimum(params, scene) -> None:
+    """The Gauss-Newton SQP with HPIPM's Riccati QP (controller.sqp: dynamics eliminated stage by
+    stage, constraints' curvature left out) iterated to convergence from the same cold start
+    reaches the optimum IPOPT finds with the exact Hessian (tol 1e-9): a fixed point of the SQP is
+    a KKT point of the NLP. Tolerances: states within 1e-5 (m, rad, m/s), inputs within 1e-4 of
+    their 40 N scale, cost within 1e-8 relative; the SQP stops at steps below 1e-7 and converges
+    linearly (Gauss-Newton), so its iterate is this close, not closer."""
+    model = UVMSModel(params, scene.water)
+    h, ref = approach(params)
+    ipopt = ModeIOCP(model, scene.planes, ModeISettings(tol=1e-9, solver=Solver.IPOPT)).solve(h, ref)
+    sqp = ModeIOCP(model, scene.planes, ModeISettings(sqp=SQPSettings(max_iter=200, step_tol=1e-7, violation_tol=1e-9,
+                                                                      real_time=False))).solve(h, ref)
+    assert ipopt.status is SolverStatus.SUCCESS and sqp.status is SolverStatus.SUCCESS
+    assert sqp.violation < 1e-9
+    np.testing.assert_allclose(sqp.h, ipopt.h, atol=1e-5)
+    np.testing.assert_allclose(sqp.u, ipopt.u, atol=1e-4 * np.abs(ipopt.u).max())
+    assert sqp.cost == pytest.approx(ipopt.cost, rel=1e-8)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("solver", [Solver.SQP, Solver.IPOPT])
+def test_avoidable_approach_stays_clear_and_settles(params, scene, solver: Solver) -> None:
     """Moving at 0.3 m/s towards the wall 2 m ahead, with a target 1.8 m ahead that the arm (at
     home it reaches 0.56 m in front of the hull) makes unreachable: Mode I brakes, folds the arm and
     stops at the 2 cm margin. Plant: the model itself, RK4 at 10 ms under a zero-order hold of the
     first input. Every solve succeeds; no body and not the end-effector tip ever comes closer than
     the margin minus 1 mm (the margin holds at the OCP's nodes; between nodes and under the
     RK4-vs-midpoint difference it may be undercut slightly); the hull comes to rest (speed below
-    1 mm/s) within 8 s."""
+    1 mm/s) within 8 s. Both solvers: the default real-time iteration (one SQP iteration per
+    period, a usable REAL_TIME iterate or better) and IPOPT to convergence (SUCCESS)."""
     model = UVMSModel(params, scene.water)
-    settings = ModeISettings()
+    settings = ModeISettings(solver=solver)
     ocp = ModeIOCP(model, scene.planes, settings)
     n = params.n_joints
     h, ref = approach(params)
     previous, closest = None, np.inf
     for _ in range(80):
         sol = ocp.solve(h, ref, previous=previous)
-        assert sol.status is SolverStatus.SUCCESS
+        assert sol.status.usable if solver is Solver.SQP else sol.status is SolverStatus.SUCCESS
         previous = sol
         for _ in range(10):
             h = model.step(h, sol.u[0], settings.dt / 10)
@@ -81,7 +105,7 @@ def test_avoidable_approach_in_mujoco_never_touches(params, scene) -> None:
     previous, closest = None, np.inf
     for _ in range(60):
         sol = ocp.solve(plant.state(), ref, previous=previous)
-        assert sol.status is SolverStatus.SUCCESS
+        assert sol.status.usable
         previous = sol
         report = plant.step(sol.u[0], 0.1)
         assert not report.contacts

@@ -1,0 +1,246 @@
+"""Sequential quadratic programming for stage problems with implicit dynamics: Gauss-Newton
+Hessian, one structure-exploiting QP (HPIPM's Riccati interior point, through CasADi's `conic`)
+per iteration, the compiled stage derivatives of `controller.stage_nlp`.
+
+The stage problem's constraints begin with the implicit dynamics: nx + n_alg equality rows in
+(x_k, u_k, z_k, x_k+1), where the last n_alg stage variables z_k are algebraic (Mode I: the
+accelerations of the inverse-dynamics midpoint rule) and carry no bounds. HPIPM wants explicit
+dynamics x_k+1 = A x_k + B u_k + b, so each iteration eliminates (dx_k+1, dz_k) stage by stage
+from the linearized dynamics by the implicit function theorem (as implicit integrators do for
+acados): [dx_k+1; dz_k] = T_k [dx_k; du_k; 1] with T_k = -[R_x1 R_z]^-1 [R_x R_u r]. The stage's
+remaining constraints and its cost are rewritten on (dx_k, du_k) through T_k, exactly (the QP is
+the linearization, nothing more is dropped). The Hessian is the cost's own (Gauss-Newton: the
+constraints' curvature is left out), so with Mode I's quadratic cost it is constant and always
+positive semidefinite; a fixed point of the iteration is a KKT point of the NLP.
+
+Globalization: full steps; the warm start from the shifted previous plan is what keeps them in
+the region of full-step convergence. Converged (SUCCESS): the step's largest entry below
+`step_tol` and the constraint violation below `violation_tol`. At the iteration budget
+`max_iter` the iterate is FEASIBLE when its violation is below FEASIBLE_VIOLATION, else a
+REAL_TIME iterate when `real_time` is set (the real-time iteration of Diehl, Bock and Schloeder
+2005 with max_iter = 1: one QP per control period, the iterates converge over the periods), else
+MAX_ITER. A failed QP is FAILED; the caller falls back (controller.switching).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from controller.stage_nlp import StageProblem, stage_functions
+from controller.transcription import FEASIBLE_VIOLATION, SolverStatus
+
+
+@dataclass(frozen=True)
+class SQPSettings:
+    max_iter: int = 2  # SQP iterations per solve (1: the real-time iteration; see bench/results/nmpc_modes.md)
+    real_time: bool = True  # at max_iter, a successful last QP gives a usable REAL_TIME iterate
+    step_tol: float = 1e-3  # largest |step| entry at convergence (m, rad, m/s, N...)
+    violation_tol: float = 1e-6  # largest constraint violation at convergence (m, N, N m)
+    qp_iter_max: int = 50  # HPIPM interior-point iterations
+    qp_mode: str = "robust"  # HPIPM's preset: speed_abs, speed, balance or robust
+    qp_tol: float = 1e-6  # HPIPM's residual tolerances (at 1e-8 it stalls at its cap with a solution accurate to 1e-13)
+
+
+@dataclass(frozen=True)
+class SQPResult:
+    status: SolverStatus
+    w: np.ndarray  # primal solution, the stage problem's layout
+    iterations: int
+    qp_iterations: int  # summed over the SQP iterations
+    violation: float  # largest constraint violation at w
+    cost: float
+    solve_time: float  # s
+
+
+def _block_sparsity(shape: tuple[int, int], blocks: list[tuple[int, int, int, int]],
+                    diagonal: list[tuple[int, int, int]] = ()) -> tuple[ca.Sparsity, tuple]:
+    """The sparsity of dense blocks (row, col, rows, cols) and diagonal blocks (row, col, size),
+    and its nonzeros' (rows, cols) in CasADi's column-major order (to gather values from a dense
+    numpy matrix)."""
+    rows, cols = [], []
+    for r, c, nr, nc in blocks:
+        rr, cc = np.meshgrid(np.arange(r, r + nr), np.arange(c, c + nc), indexing="ij")
+        rows.append(rr.ravel())
+        cols.append(cc.ravel())
+    for r, c, n in diagonal:
+        rows.append(np.arange(r, r + n))
+        cols.append(np.arange(c, c + n))
+    sp = ca.Sparsity.triplet(*shape, np.concatenate(rows).tolist(), np.concatenate(cols).tolist())
+    r, c = sp.get_triplet()
+    return sp, (np.array(r), np.array(c))
+
+
+class _NumpyCall:
+    """A CasADi Function evaluated on numpy arrays through Function.buffer: inputs and outputs
+    in CasADi's nonzero order (column-major for dense ones), no DM conversions (which cost more
+    than the compiled functions themselves at this size)."""
+
+    def __init__(self, f: ca.Function):
+        self.f = f
+        self._buf, self._run = f.buffer()
+        self.out = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
+        for i, o in enumerate(self.out):
+            self._buf.set_res(i, memoryview(o))
+
+    def __call__(self, *args: np.ndarray) -> list[np.ndarray]:
+        """The outputs' nonzeros (views of buffers the next call overwrites)."""
+        keep = [np.ascontiguousarray(a, float) for a in args]  # alive until the call returns
+        for i, a in enumerate(keep):
+            if a.size != self.f.nnz_in(i):
+                raise ValueError(f"{self.f.name()} input {i}: {a.size} values; allowed: {self.f.nnz_in(i)}")
+            self._buf.set_arg(i, memoryview(a))
+        self._run()
+        return self.out
+
+
+
+class StageSQP:
+    """SQP on `problem` (no terminal functions; x_0 fully fixed to p[:nx]). The last n_alg entries
+    of each stage's v are algebraic; the first nx + n_alg constraint rows are the dynamics (= 0).
+    The cost must be quadratic (its Hessian is evaluated once, at the first solve)."""
+
+    def __init__(self, problem: StageProblem, name: str, n_alg: int, settings: SQPSettings = SQPSettings()):
+        pr = problem
+        if pr.n_terminal or pr.terminal_cost is not None or pr.nf != pr.nx or pr.np_stage:
+            raise ValueError("StageSQP: terminal functions, partly fixed x_0 and stage parameters are not supported")
+        self.pr, self.settings, self.n_alg = pr, settings, n_alg
+        N, nx, nv = pr.horizon, pr.nx, pr.nv
+        self.nu = nv - n_alg  # the QP's controls per stage
+        self.nd = nx + n_alg  # dynamics rows
+        self.ng = pr.nc - self.nd  # path constraints per stage
+        self.ns = 2 * nx + nv
+        fn = stage_functions(pr, name)
+        S, P = ca.MX.sym("S", self.ns, N), ca.MX.sym("P", pr.np)
+        PN = ca.repmat(P, 1, N)
+        c, J = fn[f"{name}_jac"].map(N)(S, PN)
+        _, grad = fn[f"{name}_grad"].map(N)(S, PN)
+        self._lin = _NumpyCall(ca.Function("linearization", [S, P], [ca.densify(c), ca.densify(J), ca.densify(grad)]))
+        self._val = _NumpyCall(ca.Function("values", [S, P], [ca.densify(fn[f"{name}_g"].map(N)(S, PN)),
+                                                            ca.sum2(pr.cost.map(N)(S, PN))]))
+        hess = fn[f"{name}_hess"].map(N)(S, PN, 1.0, ca.DM.zeros(pr.nc, N))
+        self._cost_hessian = _NumpyCall(ca.Function("cost_hessian", [S, P], [ca.densify(hess)]))
+        self._Hs: np.ndarray | None = None
+        nq, nxu = (N + 1) * nx + N * self.nu, nx + self.nu
+        na = N * (nx + self.ng)
+        self._col = [k * nxu for k in range(N + 1)]  # where dx_k starts in the QP's variables
+        a_blocks, a_diag, h_blocks = [], [], []
+        for k in range(N):
+            r = k * (nx + self.ng)
+            a_blocks += [(r, self._col[k], nx, nxu), (r + nx, self._col[k], self.ng, nxu)]
+            a_diag.append((r, self._col[k + 1], nx))
+            h_blocks.append((self._col[k], self._col[k], nxu, nxu))
+        h_blocks.append((self._col[N], self._col[N], nx, nx))
+        a_sp, self._a_idx = _block_sparsity((na, nq), a_blocks, a_diag)
+        h_sp, self._h_idx = _block_sparsity((nq, nq), h_blocks)
+        self.qp = ca.conic(f"{name}_qp", "hpipm", {"a": a_sp, "h": h_sp}, {
+            "N": N, "nx": [nx] * (N + 1), "nu": [self.nu] * N + [0], "ng": [self.ng] * N + [0],
+            "print_problem": False, "print_time": False, "error_on_fail": False,
+            "hpipm": {"mode": settings.qp_mode, "iter_max": settings.qp_iter_max, **{
+                f"res_{r}_max": settings.qp_tol for r in "gbdm"}}})
+        self._h_sp, self._a_sp = h_sp, a_sp
+        # dense work matrices; the -I blocks of the dynamics rows never change
+        self._A, self._H = np.zeros((na, nq)), np.zeros((nq, nq))
+        for k in range(N):
+            r = k * (nx + self.ng)
+            self._A[r:r + nx, self._col[k + 1]:self._col[k + 1] + nx] = -np.eye(nx)
+        nz = nx + nv
+        self._keep = np.concatenate([np.r_[k * nz:k * nz + nxu] for k in range(N)] + [np.r_[N * nz:N * nz + nx]])
+
+    # ------------------------------------------------------------------------------------------
+    def _stages(self, w: np.ndarray) -> np.ndarray:
+        """(ns, N) in column-major nonzero order: the stage vectors s_k one after the other."""
+        pr = self.pr
+        nz = pr.nx + pr.nv
+        return np.concatenate([w[k * nz:k * nz + self.ns] for k in range(pr.horizon)])
+
+    def evaluate(self, w: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> tuple[float, float]:
+        """(largest violation of the stage constraints and of x_0 = p[:nx], cost) at w."""
+        out = self._val(self._stages(w), p)
+        c = out[0]
+        over = np.maximum(lbg - c, c - ubg)
+        return float(max(over.max(initial=0.0), np.abs(w[:self.pr.nx] - p[:self.pr.nx]).max())), float(out[1][0])
+
+    def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray, lbg: np.ndarray,
+              ubg: np.ndarray) -> SQPResult:
+        """From w0 with parameters p; lbw/ubw bound w, lbg/ubg bound the stage constraints (N nc,
+        stage-major; the dynamics rows must be 0)."""
+        t0 = time.perf_counter()
+        pr, s = self.pr, self.settings
+        N, nx, nv, nu, nd, ns, ng = pr.horizon, pr.nx, pr.nv, self.nu, self.nd, self.ns, self.ng
+        nz, nxu = nx + nv, nx + self.nu
+        w = np.array(w0, float)
+        lo_g = lbg.reshape(N, pr.nc)[:, nd:]
+        hi_g = ubg.reshape(N, pr.nc)[:, nd:]
+        if self._Hs is None:
+            self._Hs = self._cost_hessian(self._stages(w), p)[0].reshape(N, ns, ns).transpose(0, 2, 1).copy()
+        Hs = self._Hs
+        status, qp_iters, iterations = SolverStatus.MAX_ITER, 0, 0
+        A, H = self._A, self._H
+        ix, iu, iz, ix1 = (slice(0, nx), slice(nx, nxu), slice(nxu, nz), slice(nz, nz + nx))
+        for iterations in range(1, s.max_iter + 1):  # noqa: B007 (the count is returned)
+            out = self._lin(self._stages(w), p)
+            c = out[0].reshape(N, pr.nc)
+            J = out[1].reshape(N, ns, pr.nc).transpose(0, 2, 1)  # (N, nc, ns)
+            grad = out[2].reshape(N, ns)
+            # eliminate (dx_k+1, dz_k): columns of s are (x_k | u_k | z_k | x_k+1)
+            Jd = J[:, :nd]
+            K = np.concatenate([Jd[:, :, ix1], Jd[:, :, iz]], axis=2)
+            rhs = np.concatenate([Jd[:, :, ix], Jd[:, :, iu], c[:, :nd, None]], axis=2)
+            T = -np.linalg.solve(K, rhs)  # (N, nd, nxu + 1): [dx1; dz] per [dx; du; 1]
+            E = np.zeros((N, ns, nxu + 1))
+            E[:, ix, :nx] = np.eye(nx)
+            E[:, iu, nx:nxu] = np.eye(nu)
+            E[:, iz] = T[:, nx:]
+            E[:, ix1] = T[:, :nx]
+            Eb, e = E[:, :, :-1], E[:, :, -1:]
+            EbT = Eb.transpose(0, 2, 1)
+            Hq = EbT @ Hs @ Eb
+            gq = (EbT @ (grad[:, :, None] + Hs @ e))[:, :, 0]
+            Jc = J[:, nd:]
+            CD = Jc @ Eb  # (N, ng, nxu)
+            ce = c[:, nd:] + (Jc @ e)[:, :, 0]
+            # the QP in HPIPM's layout [dx_0, du_0, ..., dx_N]
+            lba, uba = np.zeros((N, nx + ng)), np.zeros((N, nx + ng))
+            lba[:, :nx] = uba[:, :nx] = -T[:, :nx, -1]
+            lba[:, nx:], uba[:, nx:] = lo_g - ce, hi_g - ce
+            for k in range(N):
+                r, col = k * (nx + ng), self._col[k]
+                A[r:r + nx, col:col + nxu] = T[k, :nx, :-1]
+                A[r + nx:r + nx + ng, col:col + nxu] = CD[k]
+                H[col:col + nxu, col:col + nxu] = Hq[k]
+            g = np.concatenate([gq.ravel(), np.zeros(nx)])
+            lbx, ubx = (lbw - w)[self._keep], (ubw - w)[self._keep]
+            lbx[:nx] = ubx[:nx] = p[:nx] - w[:nx]
+            # (called with DMs: through Function.buffer CasADi 3.8's HPIPM interface keeps stale state
+            # between calls and returns wrong steps from the second call on)
+            r = self.qp(h=ca.DM(self._h_sp, H[self._h_idx].tolist()), g=g,
+                        a=ca.DM(self._a_sp, A[self._a_idx].tolist()),
+                        lba=lba.ravel(), uba=uba.ravel(), lbx=lbx, ubx=ubx)
+            st = self.qp.stats()
+            qp_iters += int(st.get("iter_count", 0))
+            if not st["success"]:
+                status = SolverStatus.FAILED
+                break
+            d = r["x"].full().ravel()
+            step = np.zeros_like(w)
+            step[self._keep] = d
+            dxu = np.stack([d[self._col[k]:self._col[k] + nxu] for k in range(N)])
+            dz = (T[:, nx:, :-1] @ dxu[:, :, None])[:, :, 0] + T[:, nx:, -1]
+            for k in range(N):
+                step[k * nz + nxu:(k + 1) * nz] = dz[k]
+            w = w + step
+            if np.abs(step).max() < s.step_tol:
+                status = SolverStatus.SUCCESS
+                break
+        violation, cost = self.evaluate(w, p, lbg, ubg)
+        if status is SolverStatus.SUCCESS and violation > s.violation_tol:
+            status = SolverStatus.MAX_ITER
+        if status is SolverStatus.MAX_ITER and violation < FEASIBLE_VIOLATION:
+            status = SolverStatus.FEASIBLE
+        elif status is SolverStatus.MAX_ITER and s.real_time:
+            status = SolverStatus.REAL_TIME
+        return SQPResult(status, w, iterations, qp_iters, violation, cost, time.perf_counter() - t0)
