@@ -1,5 +1,6 @@
 """Evaluation time of the paper's model f(h, u, ...) and of its Jacobian d f / d(h, u), through
-CasADi's virtual machine and compiled to C by CasADi's code generation (gcc -O2).
+CasADi's virtual machine and compiled to C by CasADi's code generation (gcc -O2); and of one RK4
+step called from numpy, as the controller's rollouts call it.
 
 Run: `python bench/model_eval.py`. Writes bench/results/model_eval.json and .md. Medians over
 repeats, every variant measured in the same run. "batch of 20" evaluates 20 states in one call
@@ -72,6 +73,12 @@ def main() -> None:
             rows[f"{name}, compiled"] = per_eval(cfn, args, 1)
             rows[f"{name}, interpreted, batch of {BATCH}"] = per_eval(fn.map(BATCH), batch_args, BATCH)
             rows[f"{name}, compiled, batch of {BATCH}"] = per_eval(cfn.map(BATCH), batch_args, BATCH)
+    u0 = args[1]
+    rows["RK4 step from numpy, interpreted (UVMSModel.rk4)"] = per_eval(
+        lambda: model.rk4(x, u0, *model.defaults(), 0.01), [], 1)
+    model.step(x, u0, 0.01)  # compiles (or loads) the RK4 step
+    rows["RK4 step from numpy, compiled, no conversions (UVMSModel.step)"] = per_eval(
+        lambda: model.step(x, u0, 0.01), [], 1)
     result = {"machine": {"python": platform.python_version(), "casadi": ca.__version__,
                           "processor": platform.processor() or platform.machine()},
               "vehicle": f"{params.name} {params.arm.name}", "n_states": params.n_states, "n_inputs": params.n_inputs,

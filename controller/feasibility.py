@@ -3,10 +3,12 @@
 IPOPT fails on tight feasible problems and can hit its iteration cap on infeasible ones without
 saying so, so a failed Mode I solve proves nothing. The test here has two stages:
 
-1. Screen: roll the model out over the horizon under maximum braking (thrust against the hull's
+1. Screens: roll the model out over the horizon under maximum braking (thrust against the hull's
    velocity, scaled to the thrusters' limits after an attitude hold; joints held at their
-   posture: controller.rollouts.BrakingPolicy). If every clearance
-   at every node stays above the margin, that rollout is a point of F: feasible, certified.
+   posture: controller.rollouts.BrakingPolicy), and, when the caller gives one, under the previous
+   Mode I plan shifted by one interval. If every clearance at every node of either rollout stays
+   above the margin (and the plan's inputs and joint angles within their bounds), that rollout is
+   a point of F: feasible, certified.
 2. Otherwise solve the minimum-violation problem (Mode I with an L1 slack on every clearance
    constraint, cost sum(slack)), started from that rollout (slacks just large enough, so the start
    is feasible). Its optimum is 0 exactly when F is non-empty, so F is declared empty when the
@@ -40,6 +42,7 @@ class Verdict(Enum):
 
 class Method(Enum):
     BRAKING_ROLLOUT = "braking rollout"
+    PREVIOUS_PLAN = "previous plan, shifted"
     MINIMUM_VIOLATION = "minimum violation"
 
 
@@ -78,14 +81,34 @@ class FeasibilityTest:
         h0 = np.asarray(h0, float)
         return rollout(self.model, self.braking, h0, h0[6:6 + self.model.n_joints], s.dt, s.horizon, current=current)
 
+    def _clearance(self, hs: np.ndarray) -> float:
+        """Smallest clearance [m] over the nodes hs[1:]."""
+        return min(float(np.asarray(self.problem._clearance(h)).min()) for h in hs[1:])
+
+    def plan_is_feasible(self, hs: np.ndarray, us: np.ndarray) -> bool:
+        """Whether a rollout (states (N+1, ns) from the measured state, inputs (N, nu)) is a point of
+        F: clearances above the margin at every node, inputs and joint angles within bounds."""
+        p = self.problem
+        n, N = self.model.n_joints, self.settings.horizon
+        lo, hi = p.lbw[p.ns:p.ns + p.nu], p.ubw[p.ns:p.ns + p.nu]
+        q_lo, q_hi = p.lbw[p._nz + 6:p._nz + 6 + n], p.ubw[p._nz + 6:p._nz + 6 + n]
+        return (len(us) == N and bool(np.all(us >= lo - 1e-9) and np.all(us <= hi + 1e-9))
+                and bool(np.all(hs[1:, 6:6 + n] >= q_lo) and np.all(hs[1:, 6:6 + n] <= q_hi))
+                and self._clearance(hs) >= self.settings.distance_margin)
+
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
-                 previous: OCPSolution | None = None) -> Certificate:
+                 previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> Certificate:
+        """The verdict for the measured state h0. `plan`: the previous Mode I plan shifted by one
+        interval, as (states re-simulated from h0, inputs): the second screen."""
         t0 = time.perf_counter()
         hs, us = self.braking_rollout(h0, current)
-        clearance = min(float(np.asarray(self.problem._clearance(h)).min()) for h in hs[1:])
-        margin = clearance - self.settings.distance_margin
+        margin = self._clearance(hs) - self.settings.distance_margin
         if margin >= 0:
             return Certificate(Verdict.FEASIBLE, Method.BRAKING_ROLLOUT, 0.0, margin, time.perf_counter() - t0, None,
+                               hs)
+        if plan is not None and self.plan_is_feasible(*plan):
+            return Certificate(Verdict.FEASIBLE, Method.PREVIOUS_PLAN, 0.0, margin, time.perf_counter() - t0, None,
                                hs)
         sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
         violation = float(np.sum(sol.slack)) if sol.status.usable else np.inf

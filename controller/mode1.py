@@ -128,11 +128,11 @@ class ModeIOCP:
         if settings.compiled:
             problem = StageProblem(nx=ns, nv=self._nz - ns, horizon=N, np=2 * ns + 3, cost=stage_cost,
                                    constraints=stage_constraints)
-            kind = "minviol" if min_violation else "mode1"
-            self.solver = build_solver(problem, f"{kind}_{p.name}_{p.arm.name}", ipopt)
-            use_sqp = settings.solver is Solver.SQP and not min_violation  # (slacks: IPOPT)
-            self.sqp = StageSQP(problem, f"{kind}_{p.name}_{p.arm.name}", n_alg=nv,
-                                settings=settings.sqp) if use_sqp else None
+            name = f"{'minviol' if min_violation else 'mode1'}_{p.name}_{p.arm.name}"
+            if settings.solver is Solver.SQP and not min_violation:  # (the slacks' problem: IPOPT)
+                self.solver, self.sqp = None, StageSQP(problem, name, n_alg=nv, settings=settings.sqp)
+            else:
+                self.solver, self.sqp = build_solver(problem, name, ipopt), None
         else:
             self.sqp = None
             w, Pn = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + 3)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from controller.codegen import NumpyCall, compiled
 from controller.kinematics import euler_rates, euler_zyx, link_frames, skew
 from controller.superellipsoid import closing_speed, plane_distance, superellipsoid_mesh
 from uvms.params import UVMSParams
@@ -93,6 +94,7 @@ class UVMSModel:
         self.body_names = ("hull", *(lk.name for lk in params.arm.links))
         self._distance_functions(h, kin)
         self.rk4 = self._rk4(h, u, Fw, Rw, vc, ac, dt)
+        self._rk4_compiled: NumpyCall | None = None
 
     # ------------------------------------------------------------------------------------------
     def _kane(self, h, u, Fw, Rw, vc, ac):
@@ -260,8 +262,15 @@ class UVMSModel:
         return np.asarray(self.f(h, u, *self.defaults(Fw, Rw, vc, ac))).ravel()
 
     def step(self, h, u, dt: float, Fw=None, Rw=None, vc=None, ac=None) -> np.ndarray:
-        """One RK4 step from numpy arrays."""
-        return np.asarray(self.rk4(h, u, *self.defaults(Fw, Rw, vc, ac), dt)).ravel()
+        """One RK4 step from numpy arrays: `rk4` compiled to C on first use (about 5 s, then cached
+        on disk; controller.codegen) and called without conversions, about 12x faster than the SX
+        function (bench/results/model_eval.md)."""
+        if self._rk4_compiled is None:
+            name = f"rk4_{self.params.name}_{self.params.arm.name}"
+            self._rk4_compiled = NumpyCall(compiled([self.rk4], name)["rk4"])
+        Fw, Rw, vc, ac = self.defaults(Fw, Rw, vc, ac)
+        out = self._rk4_compiled(h, u, Fw, np.asarray(Rw, float).T, vc, ac, np.array([dt], float))
+        return out[0].copy()
 
 
 def _validate(p: UVMSParams) -> None:

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from controller.codegen import NumpyCall
 from controller.stage_nlp import StageProblem, stage_functions
 from controller.transcription import FEASIBLE_VIOLATION, SolverStatus
 
@@ -74,30 +75,6 @@ def _block_sparsity(shape: tuple[int, int], blocks: list[tuple[int, int, int, in
     return sp, (np.array(r), np.array(c))
 
 
-class _NumpyCall:
-    """A CasADi Function evaluated on numpy arrays through Function.buffer: inputs and outputs
-    in CasADi's nonzero order (column-major for dense ones), no DM conversions (which cost more
-    than the compiled functions themselves at this size)."""
-
-    def __init__(self, f: ca.Function):
-        self.f = f
-        self._buf, self._run = f.buffer()
-        self.out = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
-        for i, o in enumerate(self.out):
-            self._buf.set_res(i, memoryview(o))
-
-    def __call__(self, *args: np.ndarray) -> list[np.ndarray]:
-        """The outputs' nonzeros (views of buffers the next call overwrites)."""
-        keep = [np.ascontiguousarray(a, float) for a in args]  # alive until the call returns
-        for i, a in enumerate(keep):
-            if a.size != self.f.nnz_in(i):
-                raise ValueError(f"{self.f.name()} input {i}: {a.size} values; allowed: {self.f.nnz_in(i)}")
-            self._buf.set_arg(i, memoryview(a))
-        self._run()
-        return self.out
-
-
-
 class StageSQP:
     """SQP on `problem` (no terminal functions; x_0 fully fixed to p[:nx]). The last n_alg entries
     of each stage's v are algebraic; the first nx + n_alg constraint rows are the dynamics (= 0).
@@ -118,11 +95,11 @@ class StageSQP:
         PN = ca.repmat(P, 1, N)
         c, J = fn[f"{name}_jac"].map(N)(S, PN)
         _, grad = fn[f"{name}_grad"].map(N)(S, PN)
-        self._lin = _NumpyCall(ca.Function("linearization", [S, P], [ca.densify(c), ca.densify(J), ca.densify(grad)]))
-        self._val = _NumpyCall(ca.Function("values", [S, P], [ca.densify(fn[f"{name}_g"].map(N)(S, PN)),
+        self._lin = NumpyCall(ca.Function("linearization", [S, P], [ca.densify(c), ca.densify(J), ca.densify(grad)]))
+        self._val = NumpyCall(ca.Function("values", [S, P], [ca.densify(fn[f"{name}_g"].map(N)(S, PN)),
                                                             ca.sum2(pr.cost.map(N)(S, PN))]))
         hess = fn[f"{name}_hess"].map(N)(S, PN, 1.0, ca.DM.zeros(pr.nc, N))
-        self._cost_hessian = _NumpyCall(ca.Function("cost_hessian", [S, P], [ca.densify(hess)]))
+        self._cost_hessian = NumpyCall(ca.Function("cost_hessian", [S, P], [ca.densify(hess)]))
         self._Hs: np.ndarray | None = None
         nq, nxu = (N + 1) * nx + N * self.nu, nx + self.nu
         na = N * (nx + self.ng)

@@ -11,16 +11,11 @@ Here the per-stage constraint Jacobian and Lagrangian Hessian are derived once i
 
 from __future__ import annotations
 
-import hashlib
-import os
-import subprocess
-import tempfile
 from dataclasses import dataclass
-from pathlib import Path
 
 import casadi as ca
 
-CACHE = Path(os.environ.get("UVMS_CODEGEN_CACHE", Path.home() / ".cache" / "uvms-codegen"))
+from controller.codegen import compiled
 
 
 @dataclass(frozen=True)
@@ -62,34 +57,6 @@ class StageProblem:
     @property
     def n_w(self) -> int:
         return self.horizon * (self.nx + self.nv) + self.nx
-
-
-def compiled(functions: list[ca.Function], name: str) -> dict[str, ca.Function]:
-    """The functions compiled to one shared object (gcc -O1), cached by a hash of their C code."""
-    gen = ca.CodeGenerator(f"{name}.c", {"with_header": False})
-    for f in functions:
-        gen.add(f)
-    with tempfile.TemporaryDirectory() as tmp:
-        cwd = os.getcwd()
-        os.chdir(tmp)
-        try:
-            gen.generate()
-            source = Path(tmp, f"{name}.c").read_bytes()
-        finally:
-            os.chdir(cwd)
-    key = hashlib.sha256(source).hexdigest()[:16]
-    CACHE.mkdir(parents=True, exist_ok=True)
-    so = CACHE / f"{name}_{key}.so"
-    if not so.exists():
-        c = CACHE / f"{name}_{key}.c"
-        c.write_bytes(source)
-        tmp_so = so.with_suffix(f".{os.getpid()}.tmp")
-        subprocess.run(["gcc", "-O1", "-fPIC", "-shared", str(c), "-o", str(tmp_so)], check=True)
-        tmp_so.replace(so)  # atomic: parallel runs never load a half-written file
-        c.unlink()
-    # finite differences only so that CasADi can build (never evaluate) derivative functions
-    return {f.name(): ca.external(f.name(), str(so), {"enable_fd": True}) for f in functions}
-
 
 def stage_functions(problem: StageProblem, name: str) -> dict[str, ca.Function]:
     """The per-stage and terminal functions, compiled (`compiled`): {name}_g (c), _jac (c, dc/ds),

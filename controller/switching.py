@@ -198,17 +198,20 @@ class SwitchingNMPC:
     def _step_mode1(self, h: np.ndarray, t: float):
         s, ocp = self.settings.mode1, self.mode1
         ref = np.asarray(self.reference(t), float)
-        cert = self.feasibility(h, ref, self.current) if self.settings.switching else None
+        previous = self._plan if isinstance(self._plan, OCPSolution) else None
+        shifted = None
+        if previous is not None:
+            us = np.vstack([previous.u[1:], previous.u[-1:]])
+            shifted = (self._resimulate(h, us, s.dt), us)
+        cert = self.feasibility(h, ref, self.current, plan=shifted) if self.settings.switching else None
         if cert is not None and cert.verdict is Verdict.INFEASIBLE:
             self.contact = self._closest_plane(cert.rollout)
             self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
             return self._step_mode2(h, cert)
         self._reported_mode = Mode.I
-        previous = self._plan if isinstance(self._plan, OCPSolution) else None
         guess = None
-        if previous is not None:
-            us = np.vstack([previous.u[1:], previous.u[-1:]])
-            guess = ocp.guess_from_rollout(self._resimulate(h, us, s.dt), us)
+        if shifted is not None:
+            guess = ocp.guess_from_rollout(*shifted)
         elif cert is not None and cert.solution is not None:
             guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)
         sol = ocp.solve(h, ref, self.current, previous=previous, guess=guess)
