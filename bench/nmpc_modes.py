@@ -164,7 +164,7 @@ def modes_two_three() -> dict:
         infos = [i for i in r.infos if i.mode is mode]
         if infos:
             rows[f"Mode {mode.value}: OCP solve"] = stats([i.ocp_time for i in infos], [i.iterations for i in infos],
-                                                         sum(i.status.value != "success" for i in infos), 0.0)
+                                                         sum(not i.status.usable for i in infos), 0.0)
             rows[f"Mode {mode.value}: whole step"] = stats([i.solve_time for i in infos],
                                                           [i.iterations for i in infos], 0, 0.0)
     return rows

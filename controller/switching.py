@@ -62,6 +62,7 @@ class SwitchingSettings:
     separation_speed: float = 0.0  # m/s: Mode III -> I once the hull's closing speed exceeds this
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
+    prebuild: bool = True  # build Modes II and III for every plane at construction (else at first use)
 
 
 @dataclass(frozen=True)
@@ -106,6 +107,10 @@ class SwitchingNMPC:
         self._mode2: dict[int, ModeIIOCP] = {}
         self._mode3: dict[int, ModeIIIOCP] = {}
         self.set_failed_thrusters(settings.failed_thrusters)
+        if settings.switching and settings.prebuild:
+            for plane in range(len(self.planes)):  # no 1 s assembly stall at the first switch
+                self.ocp2(plane)
+                self.ocp3(plane)
         self.mode = Mode.I
         self.contact: int | None = None
         self._plan: OCPSolution | ModeIISolution | ModeIIISolution | None = None
