@@ -1,9 +1,10 @@
 """The switching NMPC (paper Sec. IV, Algorithms 1-3 and the Final Algorithm): one `step` per
 control period.
 
-Mode selection (Algorithm 3): Mode I while the feasibility certificate finds Mode I's feasible set
-non-empty; Mode II once it is empty (the contact plane is the one the braking rollout comes closest
-to); Mode III after the Mode II step taken with N_p = 1 (Algorithm 1); back to Mode I after a Mode
+Mode selection (Algorithm 3): Mode I while the feasibility certificate (controller.feasibility:
+the braking rollout, the previous plan shifted, then the minimum-violation problem) finds Mode I's
+feasible set non-empty; Mode II once it is empty (the contact plane is the one the braking rollout
+comes closest to); Mode III after the Mode II step taken with N_p = 1 (Algorithm 1); back to Mode I after a Mode
 III step once the hull's closing speed to the contact plane, measured at the start of the next step,
 is above `separation_speed` (0 by default).
 
@@ -13,9 +14,11 @@ contact forces) (paper: Final Algorithm). Mode III's recomputed states are put b
 by Algorithm 2's inverse kinematics, since a prescribed contact force alone would let the tip
 drift off it.
 
-Solver failures. A solve that does not reach IPOPT's tolerance (or its acceptable level) is not
-used. The fallback, reported in StepInfo.fallback: the previous plan of the same mode shifted by one
-interval (its second input) when there is one; otherwise Mode I brakes at full thrust (the
+Solver failures. A solve whose status is not usable (controller.transcription.SolverStatus: Mode
+I's SQP accepts its real-time iterate after a successful QP; IPOPT must reach its tolerance, its
+acceptable level, or a feasible iterate at its cap) is not used. The fallback, reported in
+StepInfo.fallback: the previous plan of the same mode shifted by one interval (its second input)
+when there is one; otherwise Mode I brakes at full thrust (the
 certificate's rollout), Mode II brakes while the arm swings towards the wall (its initial guess)
 and Mode III brakes with the arm held rigid, so that a tip on the wall keeps pushing
 (controller.rollouts.BrakingPolicy).
