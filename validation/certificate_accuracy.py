@@ -2,20 +2,20 @@
 
 Two ground truths, side by side:
 - the model's maximum-braking rollout (controller.feasibility.FeasibilityTest.braking_rollout:
-  attitude held, the joints held), evaluated at each speed;
-- Mode I's feasible set F itself, decided by more solver effort than the certificate spends and
-  verified: the minimum-violation problem from two starts (the braking rollout, as the
-  certificate, and the coasting state with zero inputs); a start counts as a proof of "avoidable"
-  only when its inputs, re-simulated from the initial state by fine RK4 (10 substeps an interval),
-  keep every clearance within 1 mm of the 2 cm margin (1 mm: the midpoint rule's and RK4's
-  predictions differ by that much over 2 s). "Unavoidable" means no start found such a plan:
-  strong evidence, not a proof (the problem is not convex).
+  attitude held, the joints held), evaluated at each speed (the issue's definition);
+- Mode I's feasible set F itself, decided with more solver effort than the certificate spends:
+  the braking rollout, else the minimum-violation problem from two starts (the braking rollout, as
+  the certificate, and the coasting state with zero inputs). A zero minimum violation from either
+  start is a feasible point of the OCP, a proof that F is not empty; "empty" means no start found
+  one: strong evidence, not a proof (the problem is not convex).
 The braking rollout is not the model's best braking: the OCP also swings the arm (its reaction
 moves the hull) and tilts the hull to use the vertical thrusters, so it avoids walls the rollout
 hits. F's threshold speed v* (bisection on the second truth, per approach: hull front `gap` m from
 the wall, heading `angle` deg off its normal, arm stowed) sets the speeds 0.5, 0.8, 0.9, 1.1, 1.25
 and 1.5 v* (outside the +-5% band); each is labelled by both truths at that speed and given to the
-certificate.
+certificate. F is the OCP's, on the implicit midpoint rule at its nodes: the table also gives the
+certificate's plan's smallest clearance under fine RK4 (10 substeps an interval), which shows how
+far the true trajectory between and at the nodes departs from the discretized one.
 
 `python -m validation.certificate_accuracy` prints the table and writes
 bench/results/certificate_accuracy.md.
@@ -37,7 +37,6 @@ FACTORS = (0.5, 0.8, 0.9, 1.1, 1.25, 1.5)
 OUT = Path(__file__).resolve().parent.parent / "bench" / "results"
 
 
-VERIFY_SLACK = 1e-3  # m: how far below the margin a re-simulated plan may dip and still prove "avoidable"
 
 
 @dataclass(frozen=True)
@@ -47,10 +46,11 @@ class Case:
     speed: float  # m/s
     threshold: float  # m/s, F's threshold speed
     rollout: Verdict  # the braking rollout's label at this speed
-    truth: Verdict  # F's label at this speed (verified multi-start)
+    truth: Verdict  # F's label at this speed (two starts)
     verdict: Verdict  # the certificate's
     violation: float
     seconds: float
+    fine_clearance: float  # m, the certificate's plan under fine RK4 (nan when a rollout certified)
 
 
 def approach(params, gap: float, angle: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -70,20 +70,19 @@ def rollout_feasible(test: FeasibilityTest, h: np.ndarray) -> bool:
     return min(float(np.asarray(test.problem._clearance(x)).min()) for x in hs[1:]) >= test.settings.distance_margin
 
 
-def verified(test: FeasibilityTest, h: np.ndarray, us: np.ndarray) -> bool:
-    """Whether inputs us (N, nu), re-simulated from h by fine RK4, keep every clearance within
-    VERIFY_SLACK of the margin at 10 points an interval."""
-    model, s = test.model, test.settings
-    x, worst = np.asarray(h, float), np.inf
+def fine_clearance(test: FeasibilityTest, h0: np.ndarray, us: np.ndarray, substeps: int = 10) -> float:
+    """Smallest clearance [m] of inputs us (N, nu) held over the intervals from h0, by RK4 in
+    `substeps` per interval, every substep checked."""
+    h, worst, dt = np.asarray(h0, float), np.inf, test.settings.dt / substeps
     for u in us:
-        for _ in range(10):
-            x = model.step(x, u, s.dt / 10)
-            worst = min(worst, float(np.asarray(test.problem._clearance(x)).min()))
-    return worst >= s.distance_margin - VERIFY_SLACK
+        for _ in range(substeps):
+            h = test.model.step(h, u, dt)
+            worst = min(worst, float(np.asarray(test.problem._clearance(h)).min()))
+    return worst
 
 
 def f_feasible(test: FeasibilityTest, h: np.ndarray, ref: np.ndarray) -> bool:
-    """F's label: the braking rollout, else a verified minimum-violation plan from either start."""
+    """F's label: the braking rollout, else a zero minimum violation from either start."""
     if rollout_feasible(test, h):
         return True
     p, N = test.problem, test.settings.horizon
@@ -91,14 +90,16 @@ def f_feasible(test: FeasibilityTest, h: np.ndarray, ref: np.ndarray) -> bool:
     coast = np.repeat(np.asarray(h, float)[None], N + 1, 0)
     for guess in (p.guess_from_rollout(hs, us), p.guess_from_rollout(coast, np.zeros((N, p.nu)))):
         sol = p.solve(h, ref, guess=guess)
-        if sol.status.usable and float(np.sum(sol.slack)) <= test.tolerance and verified(test, h, sol.u):
+        if sol.status.usable and float(np.sum(sol.slack)) <= test.tolerance:
             return True
     return False
 
 
-def threshold_speed(test: FeasibilityTest, params, gap: float, angle: float, steps: int = 12) -> float:
-    """F's threshold speed [m/s] by bisection on f_feasible (assumed monotone in speed)."""
-    lo, hi = 0.0, 2.0
+def threshold_speed(test: FeasibilityTest, params, gap: float, angle: float, steps: int = 10) -> float:
+    """F's threshold speed [m/s] by bisection on f_feasible (assumed monotone in speed) within
+    0..1 m/s: the threshold times 1.5 stays within a BlueROV2's speeds (above about 1.8 m/s the
+    model's quadratic drag makes feasibility non-monotone in speed)."""
+    lo, hi = 0.0, 1.0
     for _ in range(steps):
         mid = 0.5 * (lo + hi)
         h, ref = approach(params, gap, angle, mid)
@@ -110,7 +111,7 @@ def label(ok: bool) -> Verdict:
     return Verdict.FEASIBLE if ok else Verdict.INFEASIBLE
 
 
-def evaluate(approaches=((0.1, 0.0), (0.3, 0.0), (0.1, 30.0), (0.3, 30.0))) -> list[Case]:
+def evaluate(approaches=((0.05, 0.0), (0.1, 0.0), (0.05, 30.0), (0.1, 30.0))) -> list[Case]:
     params, scene = load_params(), load_scene()
     test = FeasibilityTest(UVMSModel(params, scene.water), scene.planes)
     cases = []
@@ -119,26 +120,31 @@ def evaluate(approaches=((0.1, 0.0), (0.3, 0.0), (0.1, 30.0), (0.3, 30.0))) -> l
         for f in FACTORS:
             h, ref = approach(params, gap, angle, f * v_star)
             c = test(h, ref)
+            fine = fine_clearance(test, h, c.solution.u) if c.solution is not None else np.nan
             cases.append(Case(gap, angle, f * v_star, v_star, label(rollout_feasible(test, h)),
-                              label(f_feasible(test, h, ref)), c.verdict, c.violation, c.solve_time))
+                              label(f_feasible(test, h, ref)), c.verdict, c.violation, c.solve_time, fine))
     return cases
 
 
 def main() -> None:
     cases = evaluate()
-    lines = ["| gap [m] | angle [deg] | v* of F [m/s] | speed / v* | braking rollout | F (verified, 2 starts) | "
-             "certificate | min. violation [m] | time [s] |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| gap [m] | angle [deg] | v* of F [m/s] | speed / v* | braking rollout | F (2 starts) | "
+             "certificate | min. violation [m] | plan's clearance, fine RK4 [m] | time [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for c in cases:
         lines.append(f"| {c.gap:g} | {c.angle:g} | {c.threshold:.3f} | {c.speed / c.threshold:.2f} | "
-                     f"{c.rollout.value} | {c.truth.value} | {c.verdict.value} | {c.violation:.4f} | {c.seconds:.2f} |")
+                     f"{c.rollout.value} | {c.truth.value} | {c.verdict.value} | {c.violation:.4f} | "
+                     f"{c.fine_clearance:.4f} | {c.seconds:.2f} |")
 
     def errors(truth: str) -> str:
         wrong = [c for c in cases if c.verdict is not getattr(c, truth)]
         fa = sum(getattr(c, truth) is Verdict.INFEASIBLE for c in wrong)
         return f"{len(wrong)} disagreements ({fa} false 'avoidable', {len(wrong) - fa} false 'unavoidable')"
 
-    summary = (f"{len(cases)} labelled cases. Against F (verified, two starts): {errors('truth')}. Against the "
-               f"braking rollout: {errors('rollout')}.")
+    summary = (f"{len(cases)} labelled cases. Against F (two starts): {errors('truth')}. Against the braking "
+               f"rollout: {errors('rollout')}. The certificate's start is one of F's two, so it cannot call an "
+               "approach avoidable that F calls unavoidable; what this table measures is the other error, and how "
+               "far the truths are apart.")
     text = "# Feasibility certificate accuracy\n\n" + summary + "\n\n" + "\n".join(lines) + "\n"
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "certificate_accuracy.md").write_text(text)
