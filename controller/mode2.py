@@ -14,13 +14,10 @@ the inputs of most stages free, and the arm then thrashed between solves.
 Algorithm 1's variable horizon: on entry, N_p = ceil(t_c / dt_nom) with t_c the time to contact of a
 braking-and-deploying rollout (Algorithm 1's own rule, with t_exp estimated; the paper starts from
 the nominal N_p, which with dt >= dt_min forbids contact sooner than N_p dt_min). Each horizon
-length N_p would be a different NLP, and assembling one costs about 1.2 s. Instead one NLP of
-N_max = `horizon` stages serves every N_p <= N_max: a per-stage parameter active_k (1 for the
-first N_p stages, 0 after) multiplies the interval's dt in the dynamics and the stage's cost, and
-the inputs of inactive stages are bounded to 0. An inactive stage then carries the state
-unchanged (h_k+1 = h_k, its acceleration determined and unused), so node N_max equals node N_p
-and the terminal constraint and cost apply to N_p's last node: the same minimizers as the N_p
-NLP, at the price of solving over N_max stages.
+length N_p is a different NLP, built on first use and cached. The stage functions and their
+compiled derivatives do not depend on N_p: they are derived and compiled (or loaded) once per
+contact plane, at construction (about 1.3 s), and a new N_p costs only the assembly of its NLP
+(about 10 ms).
 """
 
 from __future__ import annotations
@@ -35,7 +32,7 @@ import numpy as np
 
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
-from controller.stage_nlp import StageProblem, build_solver
+from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import SolverStatus, clearances, ipopt_status, midpoint_residual, smooth_norm, tip_gap
 from uvms.scene import Plane
 
@@ -84,29 +81,26 @@ class ModeIIOCP:
         plane = self.planes[contact]
         h, h1, u, a, dt, dt1 = (ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv),
                                 ca.SX.sym("dt"), ca.SX.sym("dt1"))
-        P = ca.SX.sym("P", ns + 1 + 3 + 1)  # h0, dt0 (unused: dt_0 is free), current; active_k (per stage)
-        vc, active = P[ns + 1:ns + 4], P[ns + 4]
-        Pg = ca.SX.sym("Pg", ns + 4)  # the terminal functions' parameters (no active flag)
+        P = ca.SX.sym("P", ns + 1 + 3)  # h0, dt0 (unused: dt_0 is free), current
+        vc = P[ns + 1:]
         self._clearance = ca.Function("clear2", [h], [clearances(model, h, self.planes, contact)])
         self.n_clear = self._clearance.size1_out(0)
         st = ca.vertcat(h, dt, u, a, h1, dt1)
-        cons = ca.vertcat(midpoint_residual(model, h, u, a, h1, active * dt, vc), dt1 - dt, self._clearance(h1))
+        cons = ca.vertcat(midpoint_residual(model, h, u, a, h1, dt, vc), dt1 - dt, self._clearance(h1))
         rates = h1[nv + 3:]  # hull angular and joint rates
-        cost = active * (s.input_weight * ca.dot(u, u) + s.rate_weight * ca.dot(rates, rates))
+        cost = s.input_weight * ca.dot(u, u) + s.rate_weight * ca.dot(rates, rates)
         xN = ca.vertcat(h1, dt1)
         d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
         v_ee = model.jacobian_ee(h1)[:3, :] @ h1[nv:]
         terminal_cost = 1 / (d0 + s.eps) + s.ee_speed_weight * smooth_norm(v_ee, s.ee_speed_smoothing)
         self._stage = (ca.Function("cost2", [st, P], [cost]), ca.Function("cons2", [st, P], [cons]),
-                       ca.Function("tcost2", [xN, Pg], [terminal_cost]),
-                       ca.Function("tcons2", [xN, Pg], [tip_gap(model, h1, plane)]))
+                       ca.Function("tcost2", [xN, P], [terminal_cost]),
+                       ca.Function("tcons2", [xN, P], [tip_gap(model, h1, plane)]))
         self._name = f"mode2_{p.name}_{p.arm.name}_{plane.name}"
         self._ipopt = {"print_level": 0, "max_iter": s.max_iter, "tol": s.tol, "mu_init": 0.1, "sb": "yes",
                        **s.ipopt_options}
-        cost, cons, tcost, tcons = self._stage
-        self.problem = StageProblem(nx=ns + 1, nv=nu + nv, horizon=s.horizon, np=ns + 4, cost=cost, constraints=cons,
-                                    terminal_cost=tcost, terminal_constraints=tcons, n_fixed=ns, np_stage=1)
-        self.solver = build_solver(self.problem, self._name, self._ipopt)
+        self._solvers: dict[int, ca.Function] = {}
+        self._functions = stage_functions(self._problem(1), self._name)
         self._lo_u, self._hi_u = p.input_bounds()
         self._q_lo = np.array([lk.joint_range[0] for lk in p.arm.links])
         self._q_hi = np.array([lk.joint_range[1] for lk in p.arm.links])
@@ -117,6 +111,18 @@ class ModeIIOCP:
         """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
         self._lo_u, self._hi_u = np.asarray(lo, float), np.asarray(hi, float)
         self.deploy.limit_thrust(lo, hi)
+
+    def _problem(self, N: int) -> StageProblem:
+        cost, cons, tcost, tcons = self._stage
+        return StageProblem(nx=self.ns + 1, nv=self.nu + self.nv, horizon=N, np=self.ns + 4, cost=cost,
+                            constraints=cons, terminal_cost=tcost, terminal_constraints=tcons, n_fixed=self.ns)
+
+    def solver(self, N: int) -> ca.Function:
+        """The NLP for horizon N (assembled on first use from the shared compiled stage functions,
+        then cached)."""
+        if N not in self._solvers:
+            self._solvers[N] = build_solver(self._problem(N), self._name, self._ipopt, self._functions)
+        return self._solvers[N]
 
     # ------------------------------------------------------------------------------------------
     def deploy_guess(self, h0: np.ndarray, N_max: int, current: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
@@ -151,15 +157,13 @@ class ModeIIOCP:
 
     def solve(self, h0: np.ndarray, guess: tuple[np.ndarray, np.ndarray, float],
               current: np.ndarray | None = None) -> ModeIISolution:
-        """Solve from h0 with a primal guess (states (N+1, ns), inputs (N, nu), dt), N <= horizon:
-        the first N stages active, the rest carrying the last state (see the module's docstring)."""
+        """Solve from h0 with a primal guess (states (N+1, ns), inputs (N, nu), dt)."""
         hs, us, dt0 = guess
-        N, N_max, ns, nu, nv = len(us), self.settings.horizon, self.ns, self.nu, self.nv
-        if not 1 <= N <= N_max:
-            raise ValueError(f"Mode II horizon {N}; allowed: 1..{N_max}")
+        N, ns, nu, nv = len(us), self.ns, self.nu, self.nv
         nz = ns + 1 + nu + nv
-        lbw, ubw = np.full(N_max * nz + ns + 1, -np.inf), np.full(N_max * nz + ns + 1, np.inf)
-        for k in range(N_max + 1):
+        solver = self.solver(N)
+        lbw, ubw = np.full(N * nz + ns + 1, -np.inf), np.full(N * nz + ns + 1, np.inf)
+        for k in range(N + 1):
             i = k * nz
             lbw[i + ns], ubw[i + ns] = self.settings.dt_bounds
             if k > 0:
@@ -167,22 +171,17 @@ class ModeIIOCP:
                 ubw[i + 6:i + 6 + self.model.n_joints] = self._q_hi
             if k < N:
                 lbw[i + ns + 1:i + ns + 1 + nu], ubw[i + ns + 1:i + ns + 1 + nu] = self._lo_u, self._hi_u
-            elif k < N_max:
-                lbw[i + ns + 1:i + ns + 1 + nu] = ubw[i + ns + 1:i + ns + 1 + nu] = 0.0
         nc = ns + nv + 1 + self.n_clear
-        lbg, ubg = np.zeros(ns + N_max * nc + 1), np.zeros(ns + N_max * nc + 1)
-        for k in range(N_max):
+        lbg, ubg = np.zeros(ns + N * nc + 1), np.zeros(ns + N * nc + 1)
+        for k in range(N):
             i = ns + k * nc + ns + nv + 1
             lbg[i:i + self.n_clear], ubg[i:i + self.n_clear] = self.settings.distance_margin, np.inf
-        pad = N_max - N
-        hs_full = np.vstack([hs, np.repeat(hs[-1:], pad, 0)])
-        us_full = np.vstack([us, np.zeros((pad, nu))])
-        w0 = np.clip(self.pack(hs_full, us_full, dt0), lbw, ubw)
-        P = np.concatenate([h0, [dt0], np.zeros(3) if current is None else current, np.arange(N_max) < N])
+        w0 = np.clip(self.pack(hs, us, dt0), lbw, ubw)
+        P = np.concatenate([h0, [dt0], np.zeros(3) if current is None else current])
         t0 = time.perf_counter()
-        r = self.solver(x0=w0, p=P, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg)
+        r = solver(x0=w0, p=P, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg)
         elapsed = time.perf_counter() - t0
-        st = self.solver.stats()
+        st = solver.stats()
         w = np.asarray(r["x"]).ravel()
         return ModeIISolution(status=ipopt_status(st),
                               h=np.array([w[k * nz:k * nz + ns] for k in range(N + 1)]),

@@ -63,28 +63,3 @@ def test_plan_touches_the_wall_at_its_end_and_the_model_agrees(params, scene) ->
     assert abs(float(tip_gap(model, h, wall))) < 0.005
     assert np.linalg.norm(h[:3] - sol.h[-1, :3]) < 0.005
 
-
-@pytest.mark.slow
-def test_padded_horizon_has_the_minimizer_of_the_short_nlp(params, scene) -> None:
-    """Algorithm 1's horizons are served by one NLP of N_max stages in which the stages after N_p
-    are inactive (controller.mode2's docstring). Oracle: the NLP built with N_max = N_p itself,
-    from the same guess. Both reach the same minimizer: states within 1e-5 (m, rad, m/s), dt within
-    1e-6 s, cost within 1e-6 relative (IPOPT tol 1e-6 on both; the padded NLP's extra stages carry
-    the state unchanged, so they add no freedom)."""
-    model = UVMSModel(params, scene.water)
-    current = np.array([0.15, 0.0, 0.0])
-    h0, _ = initial_state(params, Scenario("approach", "", gap=0.35, speed=0.2))
-    lo, hi = params.input_bounds()
-    lo[:8] = hi[:8] = 0.0
-    padded = ModeIIOCP(model, scene.planes, 0, ModeIISettings(horizon=20))
-    padded.limit_inputs(lo, hi)
-    guess = padded.deploy_guess(h0, 20, current)
-    N = len(guess[1])
-    assert 1 < N < 20
-    short = ModeIIOCP(model, scene.planes, 0, ModeIISettings(horizon=N))
-    short.limit_inputs(lo, hi)
-    a, b = padded.solve(h0, guess, current), short.solve(h0, guess, current)
-    assert a.status is SolverStatus.SUCCESS and b.status is SolverStatus.SUCCESS
-    np.testing.assert_allclose(a.h, b.h, atol=1e-5)
-    assert a.dt == pytest.approx(b.dt, abs=1e-6)
-    assert a.cost == pytest.approx(b.cost, rel=1e-6)
