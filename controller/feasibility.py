@@ -5,10 +5,11 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
 
 1. Screens: roll the model out over the horizon under maximum braking (thrust against the hull's
    velocity, scaled to the thrusters' limits after an attitude hold; joints held at their
-   posture: controller.rollouts.BrakingPolicy), and, when the caller gives one, under the previous
-   Mode I plan shifted by one interval. If every clearance at every node of either rollout stays
-   above the margin (and the plan's inputs and joint angles within their bounds), that rollout is
-   a point of F: feasible, certified.
+   posture: controller.rollouts.BrakingPolicy); when the caller gives them, under the previous
+   Mode I plan shifted by one interval, and then under a fresh Mode I plan (the caller's solve,
+   asked for only when the other screens fail). If every clearance at every node of a rollout
+   stays above the margin (and the plan's inputs and joint angles within their bounds), that
+   rollout is a point of F: feasible, certified.
 2. Otherwise solve the minimum-violation problem (Mode I with an L1 slack on every clearance
    constraint, cost sum(slack)), started from that rollout (slacks just large enough, so the start
    is feasible). Its optimum is 0 exactly when F is non-empty, so F is declared empty when the
@@ -23,7 +24,7 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
 
@@ -43,6 +44,7 @@ class Verdict(Enum):
 class Method(Enum):
     BRAKING_ROLLOUT = "braking rollout"
     PREVIOUS_PLAN = "previous plan, shifted"
+    MODE_I_PLAN = "Mode I's plan"
     MINIMUM_VIOLATION = "minimum violation"
 
 
@@ -97,10 +99,12 @@ class FeasibilityTest:
                 and self._clearance(hs) >= self.settings.distance_margin)
 
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
-                 previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None
-                 ) -> Certificate:
+                 previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None,
+                 fresh: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None) -> Certificate:
         """The verdict for the measured state h0. `plan`: the previous Mode I plan shifted by one
-        interval, as (states re-simulated from h0, inputs): the second screen."""
+        interval, as (states re-simulated from h0, inputs): the second screen. `fresh`: called
+        when the screens before it fail, returns a new Mode I plan in the same form (or None): the
+        third."""
         t0 = time.perf_counter()
         hs, us = self.braking_rollout(h0, current)
         margin = self._clearance(hs) - self.settings.distance_margin
@@ -110,6 +114,9 @@ class FeasibilityTest:
         if plan is not None and self.plan_is_feasible(*plan):
             return Certificate(Verdict.FEASIBLE, Method.PREVIOUS_PLAN, 0.0, margin, time.perf_counter() - t0, None,
                                hs)
+        candidate = fresh() if fresh is not None else None
+        if candidate is not None and self.plan_is_feasible(*candidate):
+            return Certificate(Verdict.FEASIBLE, Method.MODE_I_PLAN, 0.0, margin, time.perf_counter() - t0, None, hs)
         sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
         violation = float(np.sum(sol.slack)) if sol.status.usable else np.inf
         verdict = Verdict.FEASIBLE if violation <= self.tolerance else Verdict.INFEASIBLE

@@ -2,11 +2,11 @@
 control period.
 
 Mode selection (Algorithm 3): Mode I while the feasibility certificate (controller.feasibility:
-the braking rollout, the previous plan shifted, then the minimum-violation problem) finds Mode I's
-feasible set non-empty; Mode II once it is empty (the contact plane is the one the braking rollout
-comes closest to); Mode III after the Mode II step taken with N_p = 1 (Algorithm 1); back to Mode I after a Mode
-III step once the hull's closing speed to the contact plane, measured at the start of the next step,
-is above `separation_speed` (0 by default).
+the braking rollout, the previous plan shifted, Mode I's fresh plan, then the minimum-violation
+problem) finds Mode I's feasible set non-empty; Mode II once it is empty (the contact plane is the
+one the braking rollout comes closest to); Mode III after the Mode II step taken with N_p = 1
+(Algorithm 1); back to Mode I after a Mode III step once the hull's closing speed to the contact
+plane, measured at the start of the next step, is above `separation_speed` (0 by default).
 
 Before each solve the previous plan is shifted by one interval and its state trajectory
 recomputed from the measured state with the model's RK4 under the plan's inputs (and dt, and
@@ -33,7 +33,7 @@ from enum import Enum
 
 import numpy as np
 
-from controller.feasibility import Certificate, FeasibilityTest, Verdict
+from controller.feasibility import Certificate, FeasibilityTest, Method, Verdict
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
@@ -207,27 +207,37 @@ class SwitchingNMPC:
         s, ocp = self.settings.mode1, self.mode1
         ref = np.asarray(self.reference(t), float)
         previous = self._plan if isinstance(self._plan, OCPSolution) else None
-        shifted = None
+        shifted, guess = None, None
         if previous is not None:
             us = np.vstack([previous.u[1:], previous.u[-1:]])
             shifted = (self._resimulate(h, us, s.dt), us)
-        cert = self.feasibility(h, ref, self.current, plan=shifted) if self.settings.switching else None
+            guess = ocp.guess_from_rollout(*shifted)
+        fresh: dict = {}
+
+        def solve_now() -> tuple[np.ndarray, np.ndarray] | None:
+            """Mode I's solve, with its plan re-simulated (the certificate's third screen)."""
+            sol = fresh["sol"] = ocp.solve(h, ref, self.current, previous=previous, guess=guess)
+            if not sol.status.usable:
+                return None
+            fresh["h"] = self._resimulate(h, sol.u, s.dt)
+            return fresh["h"], sol.u
+
+        cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now) if self.settings.switching \
+            else None
         if cert is not None and cert.verdict is Verdict.INFEASIBLE:
             self.contact = self._closest_plane(cert.rollout)
             self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
             return self._step_mode2(h, cert)
         self._reported_mode = Mode.I
-        guess = None
-        if shifted is not None:
-            guess = ocp.guess_from_rollout(*shifted)
-        elif cert is not None and cert.solution is not None:
-            guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)
-        sol = ocp.solve(h, ref, self.current, previous=previous, guess=guess)
+        if cert is not None and cert.method is Method.MINIMUM_VIOLATION and cert.solution is not None:
+            guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)  # a better start than the fresh one
+            fresh.clear()
+        sol = fresh["sol"] if "sol" in fresh else ocp.solve(h, ref, self.current, previous=previous, guess=guess)
         self._ocp_time = sol.solve_time
         if sol.status.usable:
             self._plan = sol
             return (sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
-                    self._resimulate(h, sol.u, s.dt), sol.u, None, cert)
+                    fresh["h"] if "h" in fresh else self._resimulate(h, sol.u, s.dt), sol.u, None, cert)
         if previous is not None:
             self._plan = None
             return (previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,

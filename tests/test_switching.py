@@ -63,13 +63,14 @@ def test_thruster_failure_approach_switches_through_all_modes(params) -> None:
     (distance > 0 at every 2 ms plant step); in Mode III the hull's closing speed is brought to
     >= 0 (the switch back to Mode I requires it); every planned contact force obeys
     |F_t| <= mu F_n (1e-6 N). (Mode I's arm motion alone slows the hull for a while; when the
-    certificate finds Mode I infeasible depends on that motion: 0.4 s with IPOPT, 1.3 s with the
+    certificate finds Mode I infeasible depends on that motion: 0.4 s with IPOPT, 1.5 s with the
     default two SQP iterations.)"""
-    r = run(replace(SCENARIOS["thrusters-dead"], duration=1.8))
+    r = run(replace(SCENARIOS["thrusters-dead"], duration=2.2))
     assert r.modes[:4] == [Mode.I, Mode.II, Mode.III, Mode.I]
     modes = [i.mode for i in r.infos]
     first_contact = int(np.argmax(r.tip_force_peak > 0))
-    assert r.tip_force_peak.max() > 0 and first_contact > modes.index(Mode.II)
+    # step k's report covers its interval [t_k, t_k + dt]: a Mode II step entered with N_p = 1 ends in contact
+    assert r.tip_force_peak.max() > 0 and first_contact >= modes.index(Mode.II)
     assert r.hull_distance.min() > 0
     back = next(k for k in range(1, len(modes)) if modes[k - 1] is Mode.III and modes[k] is Mode.I)
     assert r.infos[back].closing_speeds[r.infos[back].contact_plane, 0] > 0

@@ -62,12 +62,12 @@ class Scenario:
 
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
     Scenario("avoid-wall", "0.3 m/s towards the wall 1 m ahead, thrusters working: Mode I only"),
-    Scenario("wall-headon", "0.8 m/s head-on, 0.6 m from the wall, 0.25 m/s current towards it, horizontal "
-             "thrusters lost at t = 0", gap=0.6, speed=0.8, current=(0.25, 0.0, 0.0), failed_thrusters=HORIZONTAL,
+    Scenario("wall-headon", "1.2 m/s head-on, 0.4 m from the wall, 0.25 m/s current towards it, horizontal "
+             "thrusters lost at t = 0", gap=0.4, speed=1.2, current=(0.25, 0.0, 0.0), failed_thrusters=HORIZONTAL,
              duration=5.0),
-    Scenario("wall-oblique", "as wall-headon, moving at 30 deg to the wall's normal", gap=0.6, speed=0.8, angle=30.0,
+    Scenario("wall-oblique", "as wall-headon, moving at 30 deg to the wall's normal", gap=0.4, speed=1.2, angle=30.0,
              current=(0.25, 0.0, 0.0), failed_thrusters=HORIZONTAL, duration=5.0),
-    Scenario("arm-deployed", "as wall-headon, the arm starting at home (deployed forward)", gap=0.6, speed=0.8,
+    Scenario("arm-deployed", "as wall-headon, the arm starting at home (deployed forward)", gap=0.4, speed=1.2,
              posture="home", current=(0.25, 0.0, 0.0), failed_thrusters=HORIZONTAL, duration=5.0),
     Scenario("current-steady", "station keeping 0.4 m from the wall in a 0.3 m/s current towards it",
              gap=0.4, speed=0.0, target_gap=0.4, current=(0.3, 0.0, 0.0), duration=4.0),
