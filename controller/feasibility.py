@@ -83,8 +83,8 @@ class FeasibilityTest:
         h0 = np.asarray(h0, float)
         return rollout(self.model, self.braking, h0, h0[6:6 + self.model.n_joints], s.dt, s.horizon, current=current)
 
-    def _clearance(self, hs: np.ndarray) -> float:
-        """Smallest clearance [m] over the nodes hs[1:]."""
+    def min_clearance(self, hs: np.ndarray) -> float:
+        """Smallest clearance [m] over the nodes hs[1:] (states (N+1, ns))."""
         return min(float(np.asarray(self.problem._clearance(h)).min()) for h in hs[1:])
 
     def plan_is_feasible(self, hs: np.ndarray, us: np.ndarray) -> bool:
@@ -96,7 +96,7 @@ class FeasibilityTest:
         q_lo, q_hi = p.lbw[p._nz + 6:p._nz + 6 + n], p.ubw[p._nz + 6:p._nz + 6 + n]
         return (len(us) == N and bool(np.all(us >= lo - 1e-9) and np.all(us <= hi + 1e-9))
                 and bool(np.all(hs[1:, 6:6 + n] >= q_lo) and np.all(hs[1:, 6:6 + n] <= q_hi))
-                and self._clearance(hs) >= self.settings.distance_margin)
+                and self.min_clearance(hs) >= self.settings.distance_margin)
 
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
                  previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None,
@@ -107,7 +107,7 @@ class FeasibilityTest:
         third."""
         t0 = time.perf_counter()
         hs, us = self.braking_rollout(h0, current)
-        margin = self._clearance(hs) - self.settings.distance_margin
+        margin = self.min_clearance(hs) - self.settings.distance_margin
         if margin >= 0:
             return Certificate(Verdict.FEASIBLE, Method.BRAKING_ROLLOUT, 0.0, margin, time.perf_counter() - t0, None,
                                hs)

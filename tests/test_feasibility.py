@@ -50,3 +50,23 @@ def test_certificate(certificate, params, gap, speed, verdict, method) -> None:
             assert c.violation <= certificate.tolerance
         else:
             assert c.violation > 10 * certificate.tolerance
+
+
+@pytest.mark.slow
+def test_plan_screen_accepts_only_plans_inside_the_bounds(certificate, params) -> None:
+    """The plan screens (previous plan, fresh Mode I plan) certify F by exhibiting a point of it.
+    Oracle: the braking rollout of the 'far' case, which keeps every clearance above the margin
+    (the certificate's own first screen says so), is accepted; the same states with one thruster
+    input 1 N beyond its bound, or with the hull's front at the last node 1 cm from the wall (inside
+    the 2 cm margin), are not."""
+    h, ref = approach(params, 1.5, 0.3)
+    assert certificate(h, ref).method is Method.BRAKING_ROLLOUT
+    hs, us = certificate.braking_rollout(h)
+    assert certificate.plan_is_feasible(hs, us)
+    hi = params.input_bounds()[1]
+    over = us.copy()
+    over[3, 0] = hi[0] + 1.0
+    assert not certificate.plan_is_feasible(hs, over)
+    close = hs.copy()
+    close[-1, 0] += WALL_X - 0.01 - (hs[-1, 0] + params.hull.superellipsoid.semi_axes[0])  # hull front 1 cm off
+    assert not certificate.plan_is_feasible(close, us)

@@ -67,7 +67,7 @@ def approach(params, gap: float, angle: float, speed: float) -> tuple[np.ndarray
 
 def rollout_feasible(test: FeasibilityTest, h: np.ndarray) -> bool:
     hs, _ = test.braking_rollout(h)
-    return min(float(np.asarray(test.problem._clearance(x)).min()) for x in hs[1:]) >= test.settings.distance_margin
+    return test.min_clearance(hs) >= test.settings.distance_margin
 
 
 def fine_clearance(test: FeasibilityTest, h0: np.ndarray, us: np.ndarray, substeps: int = 10) -> float:
