@@ -108,3 +108,31 @@ def test_contact_force_sign_agrees_with_mujoco_contact_frame(hull_only, scene) -
     mujoco.mj_forward(plant.model, plant.data)
     assert plant.data.qfrc_constraint[2] > 0 and r.contacts[0].force[2] > 0
     assert plant.data.qfrc_constraint[2] == pytest.approx(r.contacts[0].force[2], rel=1e-3)
+
+
+@pytest.mark.parametrize("angle_deg", [0.0, 30.0, 60.0, 80.0, 90.0, 100.0])
+@pytest.mark.parametrize("side", [1, 2], ids=["across y", "across z"])
+def test_tip_leads_the_last_link_into_a_plane(params, scene, angle_deg, side) -> None:
+    """Mode III's contact is the end-effector's: the tip sphere must reach a plane before the last
+    link's capsule does, whichever way the link meets it up to side-on. A plane in front of the tip,
+    its normal `angle_deg` off the link's axis. Oracle: the closed form for a sphere of radius r_t at
+    L_t on the axis against the capsule (radius r_c, axis from 0 to L_c): the capsule is farther by
+    L_t cos(a) + r_t - max(L_c cos(a), 0) - r_c, > 0 up to 92 deg with the parameter file's values
+    (100 deg checks the other sign). MuJoCo's own distances (mj_geomDistance) agree within 1e-6 m
+    (collision-detector precision)."""
+    arm = params.arm
+    last = arm.links[-1]
+    probe = Plant(params, scene.with_planes(()), FIXED_NO_GRAVITY)
+    m, d = probe.model, probe.data
+    tip_centre = d.site_xpos[m.site(EE_SITE).id].copy()
+    R = d.xmat[m.body(last.name).id].reshape(3, 3)
+    a = np.radians(angle_deg)
+    towards = np.cos(a) * R[:, 0] + np.sin(a) * R[:, side]
+    plane = Plane.through("probe", tip_centre + (arm.tip_radius + 0.05) * towards, -towards, 0.5)
+    plant = Plant(params, scene.with_planes((plane,)), FIXED_NO_GRAVITY)
+    dist = plant.signed_distances()[:, 0]
+    tip, link = dist[plant.geom_names.index("ee_tip")], dist[plant.geom_names.index(f"{last.name}_geom")]
+    expected = arm.end_effector[0] * np.cos(a) + arm.tip_radius - max(last.length * np.cos(a), 0.0) - last.radius
+    assert tip == pytest.approx(0.05, abs=1e-6)
+    assert link - tip == pytest.approx(expected, abs=1e-6)
+    assert (link - tip > 0.0) == (angle_deg <= 90.0)
