@@ -97,8 +97,10 @@ class ModeIIOCP:
                        ca.Function("tcost2", [xN, P], [terminal_cost]),
                        ca.Function("tcons2", [xN, P], [tip_gap(model, h1, plane)]))
         self._name = f"mode2_{p.name}_{p.arm.name}_{plane.name}"
-        self._ipopt = {"print_level": 0, "max_iter": s.max_iter, "tol": s.tol, "mu_init": 0.1, "sb": "yes",
-                       **s.ipopt_options}
+        # The adaptive barrier (probing oracle) converged on 23 of 26 Mode II problems recorded in MuJoCo
+        # closed loops, the monotone one from mu_init = 0.1 on 16 (the note on issue 4).
+        self._ipopt = {"print_level": 0, "max_iter": s.max_iter, "tol": s.tol, "mu_strategy": "adaptive",
+                       "mu_oracle": "probing", "sb": "yes", **s.ipopt_options}
         self._solvers: dict[int, ca.Function] = {}
         self._functions = stage_functions(self._problem(1), self._name)
         self._lo_u, self._hi_u = p.input_bounds()
@@ -140,14 +142,18 @@ class ModeIIOCP:
                 break
         N = min(N_max, next_horizon(2, t_contact, s.dt_nominal)) if t_contact else N_max
         dt = float(np.clip(t_contact / N if t_contact else s.dt_bounds[1], *s.dt_bounds))
+        # The policy is stiff (computed torque + PD): held over a whole interval it goes unstable and
+        # swings the arm through the wall, so it acts every substep and each interval's input is its mean.
+        m = math.ceil(dt / fine)
         hs, us = [np.asarray(h0, float)], []
         for _ in range(N):
-            u = self.deploy(hs[-1], posture, current)
-            h = hs[-1]
-            for _ in range(4):
-                h = self.model.step(h, u, dt / 4, vc=current)
+            h, u_sum = hs[-1], 0.0
+            for _ in range(m):
+                u = self.deploy(h, posture, current)
+                h = self.model.step(h, u, dt / m, vc=current)
+                u_sum = u_sum + u
             hs.append(h)
-            us.append(u)
+            us.append(u_sum / m)
         return np.array(hs), np.array(us), dt
 
     def pack(self, hs: np.ndarray, us: np.ndarray, dt: float) -> np.ndarray:

@@ -78,7 +78,10 @@ def rollout(model: UVMSModel, policy: BrakingPolicy, h0: np.ndarray, posture: np
 
 class ReachPosture:
     """Joint angles [rad] that bring the end-effector tip furthest towards a plane for a given hull
-    pose: min n.x_ee(q) over the joint range (+1e-3 |q - q_now|^2 to make it unique)."""
+    pose: min n.x_ee(q) over the joint range (+1e-3 |q - q_now|^2 to make it unique). The problem
+    has local minima (from a stowed arm on a pitched hull the solver folds the arm further instead of
+    stretching it out), so it starts from the current, the home and the straight-out posture and
+    keeps the best."""
 
     def __init__(self, model: UVMSModel, plane: Plane):
         n = model.n_joints
@@ -88,11 +91,17 @@ class ReachPosture:
         self._solver = ca.nlpsol("reach", "ipopt", {"x": q, "p": ca.vertcat(pose, q_now),
                                                     "f": reach + 1e-3 * ca.sumsqr(q - q_now)},
                                  {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 100}})
-        self._lo = [lk.joint_range[0] for lk in model.params.arm.links]
-        self._hi = [lk.joint_range[1] for lk in model.params.arm.links]
+        self._lo = np.array([lk.joint_range[0] for lk in model.params.arm.links])
+        self._hi = np.array([lk.joint_range[1] for lk in model.params.arm.links])
+        self._starts = (model.params.arm.home, np.zeros(n))
         self.n = n
 
     def __call__(self, h: np.ndarray) -> np.ndarray:
         q_now = h[6:6 + self.n]
-        r = self._solver(x0=q_now, p=np.concatenate([h[:6], q_now]), lbx=self._lo, ubx=self._hi)
-        return np.asarray(r["x"]).ravel()
+        p = np.concatenate([h[:6], q_now])
+        best = None
+        for q0 in (q_now, *self._starts):
+            r = self._solver(x0=np.clip(q0, self._lo, self._hi), p=p, lbx=self._lo, ubx=self._hi)
+            if best is None or float(r["f"]) < float(best["f"]):
+                best = r
+        return np.asarray(best["x"]).ravel()

@@ -58,6 +58,7 @@ def _print_summary(s: dict) -> None:
     rows = [("verdict", f"{s['verdict']}: {s['reason']}"), ("modes", " > ".join(s["modes"])),
             ("min hull distance [m]", f"{s['min_hull_distance']:.3f}"),
             ("hull contact impulse [N s]", f"{s['hull_contact_impulse']:.3f}"),
+            ("other arm-link contact impulse [N s]", f"{s['link_contact_impulse']:.3f}"),
             ("peak end-effector force [N]", f"{s['ee_peak_contact_force']:.0f} "
              f"(max total thrust along the wall normal: {s['max_total_thrust_along_wall_normal']:.0f})"),
             ("final task error [m]", f"{s['final_task_error']:.3f}"),

@@ -4,6 +4,10 @@ A control period is the step's dt (dt_nom, or Mode II's dt* rounded to the physi
 the input held (zero-order) over MuJoCo's physics steps and the state measured from the plant. The
 controller knows the scene's current at each step and is told of thruster failures when they happen;
 nothing else about the plant (its fluid model, contact, joint friction) is shared.
+
+The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
+tip, and only the tip, touch. A stowed arm that crashes into the wall before the hull does spares
+the hull but is still a collision ("arm contact"), not a success.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless
 import json
 import time
 from dataclasses import asdict, replace
+from enum import Enum
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +34,26 @@ from uvms_mj.build import HULL, TIP_GEOM
 from uvms_mj.plant import Plant, PlantSettings, ThrusterFault
 from validation import mismatch as mismatches
 from validation.scenarios import Scenario
+
+
+class Outcome(Enum):
+    """A run's verdict: what touched an obstacle besides the end-effector tip."""
+
+    SUCCESS = "success"
+    ARM_CONTACT = "arm contact"
+    HULL_CONTACT = "hull contact"
+
+
+def judge(hull_impulse: float, hull_peak: float, link_impulse: float, tip_peak: float) -> tuple[Outcome, str]:
+    """Verdict and reason from the summed contact-impulse magnitudes [N s] of the hull and of the arm
+    links other than the tip, and the peak normal forces [N] of the hull and of the tip."""
+    if hull_impulse > 0.0:
+        return Outcome.HULL_CONTACT, f"the hull touched with {hull_impulse:.3f} N s of impulse, peak {hull_peak:.0f} N"
+    if link_impulse > 0.0:
+        return Outcome.ARM_CONTACT, f"an arm link other than the end-effector touched with {link_impulse:.3f} N s"
+    if tip_peak > 0.0:
+        return Outcome.SUCCESS, f"only the end-effector touched (peak {tip_peak:.0f} N)"
+    return Outcome.SUCCESS, "nothing touched an obstacle"
 
 
 def wall_x() -> float:
@@ -123,8 +148,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
     hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
     min_dist = np.full((len(plant.geom_names), len(scene.planes)), np.inf)
-    hull_impulse, hull_peak, ee_peak, steps, failed = np.zeros(3), 0.0, 0.0, [], False
-    link_impulse = np.zeros(3)
+    hull_impulse, link_impulse, hull_peak, ee_peak, steps, failed = 0.0, 0.0, 0.0, 0.0, [], False
     telemetry: dict[str, list] = {k: [] for k in ("t", "u", "h", "hull_distance", "tip_distance", "tip_force")}
     tip = plant.geom_names.index(TIP_GEOM) if TIP_GEOM in plant.geom_names else None
     next_frame, wall_clock = 0.0, time.perf_counter()
@@ -156,12 +180,12 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
                                               default=0.0))
             for c in report.contacts:
                 if c.body == HULL:
-                    hull_impulse += c.impulse
+                    hull_impulse += float(np.linalg.norm(c.impulse))
                     hull_peak = max(hull_peak, c.peak_normal_force)
                 elif c.geom == TIP_GEOM:
                     ee_peak = max(ee_peak, c.peak_normal_force)
                 else:
-                    link_impulse += c.impulse
+                    link_impulse += float(np.linalg.norm(c.impulse))
             steps.append({"t": t, "dt": dt, "mode": info.mode.value, "status": info.status.value,
                           "fallback": info.fallback.value, "solve_time": info.solve_time, "ocp_time": info.ocp_time,
                           "iterations": info.iterations, "horizon": info.horizon} if info else
@@ -187,19 +211,16 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
             per_mode[m] = {"steps": len(times), "median_s": float(np.median(times)),
                                  "p95_s": float(np.percentile(times, 95)), "max_s": float(np.max(times))}
     thrust = max_thrust_along(params, -scene.planes[wall].normal)
-    hull_touch = float(np.linalg.norm(hull_impulse))
-    verdict = "success" if hull_touch == 0.0 else "hull contact"
-    reason = ("the hull never touched an obstacle" if hull_touch == 0.0 else
-              f"the hull touched with {hull_touch:.3f} N s of impulse, peak {hull_peak:.0f} N")
+    outcome, reason = judge(hull_impulse, hull_peak, link_impulse, ee_peak)
     summary = {
         "scenario": asdict(sc), "controller": controller,
-        "mismatch": {"spec": mismatch, "seed": seed, "values": drawn}, "verdict": verdict, "reason": reason,
+        "mismatch": {"spec": mismatch, "seed": seed, "values": drawn}, "verdict": outcome.value, "reason": reason,
         "modes": [m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m], "timeline": timeline,
         "min_distance": {g: {p.name: float(min_dist[i, j]) for j, p in enumerate(scene.planes)}
                          for i, g in enumerate(plant.geom_names)},
         "min_hull_distance": float(min_dist[hull_geoms].min()) if hull_geoms else None,
-        "hull_contact_impulse": hull_touch, "hull_peak_contact_force": hull_peak,
-        "ee_peak_contact_force": ee_peak, "link_contact_impulse": float(np.linalg.norm(link_impulse)),
+        "hull_contact_impulse": hull_impulse, "hull_peak_contact_force": hull_peak,
+        "ee_peak_contact_force": ee_peak, "link_contact_impulse": link_impulse,
         "max_total_thrust_along_wall_normal": thrust,
         "final_task_error": task_error, "final_joint_angles": h[6:6 + n].tolist(),
         "solve_time": per_mode, "fallbacks": sum(s["fallback"] != Fallback.NONE.value for s in steps),
