@@ -121,9 +121,14 @@ class ModeIOCP:
         stage_constraints = ca.Function("cons", [st, P], [ca.vertcat(self._dynamics(hk, uk, ak, hk1, P[2 * ns:]),
                                                                       self._clearance(hk1) + sk if min_violation
                                                                       else self._clearance(hk1))])
+        # Warm start; the adaptive barrier (probing oracle) for Mode I itself: with the monotone one IPOPT
+        # stalled at its cap on some steps of the avoidable approach (tests/test_mode1.py) once the tip
+        # became a 50 mm sphere. The minimum-violation problem keeps the monotone barrier (controller.
+        # feasibility says why).
+        barrier = {} if min_violation else {"mu_strategy": "adaptive", "mu_oracle": "probing"}
         ipopt = {"print_level": 0, "max_iter": settings.max_iter, "tol": settings.tol,
                  "warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
-                 "mu_init": 1e-3, "sb": "yes", **settings.ipopt_options}
+                 "mu_init": 1e-3, "sb": "yes", **barrier, **settings.ipopt_options}
         nw = N * self._nz + ns
         if settings.compiled:
             problem = StageProblem(nx=ns, nv=self._nz - ns, horizon=N, np=2 * ns + 3, cost=stage_cost,
