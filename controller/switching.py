@@ -117,6 +117,7 @@ class SwitchingNMPC:
         self.mode = Mode.I
         self.contact: int | None = None
         self._plan: OCPSolution | ModeIISolution | ModeIIISolution | None = None
+        self._recomputed = np.zeros((0, model.n_states))  # the Mode III plan's states from its inputs
         self._horizon2 = settings.mode2.horizon
         self._last_u = np.zeros(model.n_inputs)
         self._reported_mode = Mode.I
@@ -276,18 +277,20 @@ class SwitchingNMPC:
         self._reported_mode = Mode.III
         s, ocp = self.settings.mode3, self.ocp3(self.contact)
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
-        if previous is not None:
+        if previous is not None:  # the Final Algorithm: the plan's recomputed states, shifted, from h
             us = np.vstack([previous.u[1:], previous.u[-1:]])
             Fs = np.vstack([previous.force[1:], previous.force[-1:]])
-            guess = ocp.contact_guess(h, us, Fs, self.current)
-        else:
+            guess = ocp.pack(np.vstack([h, self._recomputed[2:], self._recomputed[-1:]]), us, Fs)
+            duals = ocp.shifted_duals(previous)
+        else:  # Algorithm 2
             guess = ocp.contact_guess(h, np.repeat(self._last_u[None], s.horizon, 0), None, self.current)
-        sol = ocp.solve(h, guess, self.current)
+            duals = None
+        sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
         if sol.status.usable:
-            self._plan = sol
+            self._plan, self._recomputed = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp)
             return (sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
-                    self._resimulate(h, sol.u, s.dt, sol.force, ocp), sol.u, sol.force, None)
+                    self._recomputed, sol.u, sol.force, None)
         self._plan = None
         if previous is not None:
             return (previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon, previous.h,
