@@ -71,7 +71,7 @@ class FeasibilityTest:
         # Started cold from the rollout: a large initial barrier and no warm-start point work best
         # (with Mode I's warm-start options IPOPT hit 100 iterations on the unavoidable case). The
         # monotone barrier stays: the adaptive one reached a zero violation on 15 of 18 problems
-        # recorded in MuJoCo closed loops where this one reached 8 (the rest hit the cap and so count
+        # recorded in MuJoCo closed loops where this one reached 10 (the rest hit the cap and so count
         # as F empty, the safe side), but the later switches it brought let an arm link hit the wall
         # in wall-headon without mismatch (the note on issue 4).
         cold = replace(settings, max_iter=max(settings.max_iter, 300), ipopt_options={
