@@ -16,7 +16,7 @@ $(VENV)/.installed: pyproject.toml
 	touch $@
 
 demo: $(VENV)/.installed
-	$(VENV)/bin/uvms run wall-headon --seed 2 --video out/wall-headon.mp4 --record out/wall-headon.rrd --plots out/plots --out out
+	$(VENV)/bin/uvms run wall-headon --seed 0 --video out/wall-headon.mp4 --record out/wall-headon.rrd --plots out/plots --out out
 
 test: $(VENV)/.installed
 	$(VENV)/bin/ruff check .
