@@ -149,8 +149,10 @@ class ModeIIIOCP:
         self.solver = build_solver(problem, name, ipopt, functions)
         # Warm start from the shifted previous plan and its multipliers (controller.switching): on 35
         # Mode III problems recorded in MuJoCo closed loops the median iteration count fell from 89
-        # (Algorithm 2's guess, the cold solver) to 38 (the note on issue 4). From Algorithm 2's
-        # guess, without multipliers, these options fail: the cold solver stays for that.
+        # (Algorithm 2's guess, the cold solver) to 38 when started from the previous solution's own
+        # states; with its recomputed states (what the switching NMPC uses) the closed-loop medians
+        # were 66 and 132 (the note on issue 4). From Algorithm 2's guess, without multipliers, these
+        # options fail: the cold solver stays for that.
         warm = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
                 "mu_init": 1e-4}
         self.warm_solver = build_solver(problem, name, {**ipopt, **warm, **s.ipopt_options}, functions)
@@ -252,7 +254,7 @@ class ModeIIIOCP:
         """Algorithm 2: for each stage, the contact force (given, or `stopping_force`), the model
         stepped with it and the inputs' thrust (joints held rigid), the hull's states kept, the arm
         put back on the plane by Wall_InvKin, joint rates zero. Returns the primal vector."""
-        s, n, nv, nt = self.settings, self.model.n_joints, self.nv, self.model.params.n_thrusters
+        s, n, nt = self.settings, self.model.n_joints, self.model.params.n_thrusters
         hs, Fs, Us = [np.asarray(h0, float)], [], []
         for k in range(s.horizon):
             F = forces[k] if forces is not None else np.array([self.stopping_force(hs[-1]), 0.0, 0.0])

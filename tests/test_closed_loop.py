@@ -60,9 +60,9 @@ def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     """wall-headon in MuJoCo (horizontal thrusters lost, a 0.25 m/s current pushing towards the
     wall), with no declared parameter mismatch (the plant's physics are still MuJoCo's, not the
     model's): modes I -> II -> III -> I within 2.5 s, nothing but the end-effector tip touches (zero
-    contact impulse on the hull and the other links, from MuJoCo's contacts), and the end-effector's peak contact force exceeds the largest total
-    thrust the thrusters could give along the wall's normal (the paper's observation). A headless
-    video is written (EGL)."""
+    contact impulse on the hull and the other links, from MuJoCo's contacts), and the end-effector's
+    peak contact force exceeds the largest total thrust the thrusters could give along the wall's
+    normal (the paper's observation). A headless video is written (EGL)."""
     video = tmp_path / "run.mp4"
     s = run(replace(get("wall-headon"), duration=2.5), out=tmp_path, video=video, mismatch=NONE)
     assert s["modes"][:4] == ["I", "II", "III", "I"]

@@ -82,8 +82,8 @@ def markdown(rows: list[dict]) -> str:
     def rate(sel: list[dict]) -> str:
         return f"{sum(r.get('verdict') == 'success' for r in sel)}/{len(sel)}"
 
-    lines += ["", "Success (only the end-effector tip touched: zero contact impulse on the hull and on every other arm link) "
-              "per scenario family:", "",
+    lines += ["", "Success (only the end-effector tip touched: zero contact impulse on the hull and on every "
+              "other arm link) per scenario family:", "",
               "| scenario | " + " | ".join(controllers) + " |", "|" + "---|" * (len(controllers) + 1)]
     lines += [f"| {f} | " + " | ".join(rate([r for r in rows if r["scenario"] == f and r["controller"] == c])
                                        for c in controllers) + " |" for f in families]
