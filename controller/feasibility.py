@@ -94,13 +94,7 @@ class FeasibilityTest:
     def plan_is_feasible(self, hs: np.ndarray, us: np.ndarray) -> bool:
         """Whether a rollout (states (N+1, ns) from the measured state, inputs (N, nu)) is a point of
         F: clearances above the margin at every node, inputs and joint angles within bounds."""
-        p = self.problem
-        n, N = self.model.n_joints, self.settings.horizon
-        lo, hi = p.lbw[p.ns:p.ns + p.nu], p.ubw[p.ns:p.ns + p.nu]
-        q_lo, q_hi = p.lbw[p._nz + 6:p._nz + 6 + n], p.ubw[p._nz + 6:p._nz + 6 + n]
-        return (len(us) == N and bool(np.all(us >= lo - 1e-9) and np.all(us <= hi + 1e-9))
-                and bool(np.all(hs[1:, 6:6 + n] >= q_lo) and np.all(hs[1:, 6:6 + n] <= q_hi))
-                and self.min_clearance(hs) >= self.settings.distance_margin)
+        return self.problem.plan_within_bounds(hs, us) and self.min_clearance(hs) >= self.settings.distance_margin
 
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
                  previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None,

@@ -174,6 +174,15 @@ class ModeIOCP:
             i = k * self._nz + ns
             self.lbw[i:i + nu], self.ubw[i:i + nu] = lo, hi
 
+    def plan_within_bounds(self, hs: np.ndarray, us: np.ndarray) -> bool:
+        """Whether inputs (N, nu) and the joint angles of states hs[1:] lie within this problem's
+        current bounds (failed thrusters included)."""
+        ns, nu, nz, n = self.ns, self.nu, self._nz, self.model.n_joints
+        lo, hi = self.lbw[ns:ns + nu], self.ubw[ns:ns + nu]
+        q_lo, q_hi = self.lbw[nz + 6:nz + 6 + n], self.ubw[nz + 6:nz + 6 + n]
+        return (len(us) == self.settings.horizon and bool(np.all(us >= lo - 1e-9) and np.all(us <= hi + 1e-9))
+                and bool(np.all(hs[1:, 6:6 + n] >= q_lo) and np.all(hs[1:, 6:6 + n] <= q_hi)))
+
     # ------------------------------------------------------------------------------------------
     def guess_from_rollout(self, h: np.ndarray, u: np.ndarray) -> np.ndarray:
         """A primal start from a state trajectory h (N+1, ns) under inputs u (N, nu): accelerations
