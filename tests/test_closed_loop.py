@@ -11,7 +11,7 @@ import pytest
 
 from uvms import load_params
 from validation.cli import main
-from validation.closed_loop import run
+from validation.closed_loop import Outcome, run
 from validation.mismatch import DEFAULT, NONE, draw, parse
 from validation.scenarios import SCENARIOS, get
 
@@ -79,7 +79,7 @@ def test_mode1_only_crashes_in_wall_headon(tmp_path) -> None:
     something other than the end-effector tip hits the wall (the hull, or the stowed arm's links
     that stick out in front of it), per MuJoCo's contacts."""
     s = run(replace(get("wall-headon"), duration=1.2), controller="mode1-only", mismatch=NONE)
-    assert s["verdict"] in ("arm contact", "hull contact")
+    assert s["verdict"] in (Outcome.ARM_CONTACT.value, Outcome.HULL_CONTACT.value)
     assert s["hull_contact_impulse"] + s["link_contact_impulse"] > 1.0  # N s: a crash, not a graze
 
 

@@ -8,7 +8,7 @@ import pytest
 from helpers import zero_input
 
 from uvms.scene import Plane
-from uvms_mj.build import EE_SITE, BuildOptions
+from uvms_mj.build import EE_SITE, TIP_GEOM, BuildOptions
 from uvms_mj.plant import Plant, PlantSettings
 
 FIXED_NO_GRAVITY = PlantSettings(build=BuildOptions(gravity=False, fixed_base=True))
@@ -131,7 +131,7 @@ def test_tip_leads_the_last_link_into_a_plane(params, scene, angle_deg, side) ->
     plane = Plane.through("probe", tip_centre + (arm.tip_radius + 0.05) * towards, -towards, 0.5)
     plant = Plant(params, scene.with_planes((plane,)), FIXED_NO_GRAVITY)
     dist = plant.signed_distances()[:, 0]
-    tip, link = dist[plant.geom_names.index("ee_tip")], dist[plant.geom_names.index(f"{last.name}_geom")]
+    tip, link = dist[plant.geom_names.index(TIP_GEOM)], dist[plant.geom_names.index(f"{last.name}_geom")]
     expected = arm.end_effector[0] * np.cos(a) + arm.tip_radius - max(last.length * np.cos(a), 0.0) - last.radius
     assert tip == pytest.approx(0.05, abs=1e-6)
     assert link - tip == pytest.approx(expected, abs=1e-6)
