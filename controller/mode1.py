@@ -217,15 +217,17 @@ class ModeIOCP:
         return np.concatenate([lam_g[:ns], stages[1:].ravel(), stages[-1]])
 
     def solve(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
-              previous: OCPSolution | None = None, guess: np.ndarray | None = None) -> OCPSolution:
+              previous: OCPSolution | None = None, guess: np.ndarray | None = None,
+              sqp: SQPSettings | None = None) -> OCPSolution:
         """Solve from state h0 towards h_ref. Primal start: `guess` (e.g. `guess_from_rollout`) when
-        given, else `previous` shifted by one stage, else h0 held; dual start: `previous` shifted."""
+        given, else `previous` shifted by one stage, else h0 held; dual start: `previous` shifted.
+        `sqp` replaces the SQP's iteration settings for this solve (Solver.SQP only)."""
         w0, lam_g, lam_x = self.initial_guess(np.asarray(h0, float), previous)
         if guess is not None:
             w0 = guess
         P = np.concatenate([h0, h_ref, np.zeros(3) if current is None else current])
         if self.sqp is not None:
-            res = self.sqp.solve(w0, P, self.lbw, self.ubw, self.lbg[self.ns:], self.ubg[self.ns:])
+            res = self.sqp.solve(w0, P, self.lbw, self.ubw, self.lbg[self.ns:], self.ubg[self.ns:], sqp)
             return self._solution(res.w, res.status, res.solve_time, res.iterations, res.cost,
                                   np.zeros(len(self.lbg)), np.zeros(len(w0)), res.violation)
         args = {"x0": w0, "p": P, "lbx": self.lbw, "ubx": self.ubw, "lbg": self.lbg, "ubg": self.ubg}

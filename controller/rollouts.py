@@ -61,6 +61,19 @@ class BrakingPolicy:
         return np.concatenate([thrust, np.clip(tau, self._lo[nt:], self._hi[nt:])])
 
 
+def simulate(model: UVMSModel, h0: np.ndarray, us: np.ndarray, dt: float, substeps: int = 4,
+             current: np.ndarray | None = None) -> np.ndarray:
+    """States (N+1, ns) of inputs us (N, nu), each held over an interval of dt [s], integrated by the
+    model's RK4 in `substeps` (the Final Algorithm's recomputed trajectory)."""
+    hs = [np.asarray(h0, float)]
+    for u in us:
+        h = hs[-1]
+        for _ in range(substeps):
+            h = model.step(h, u, dt / substeps, vc=current)
+        hs.append(h)
+    return np.array(hs)
+
+
 def rollout(model: UVMSModel, policy: BrakingPolicy, h0: np.ndarray, posture: np.ndarray, dt: float, steps: int,
             substeps: int = 4, current: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """States (steps+1, ns) and inputs (steps, nu): the policy's input held over each interval of

@@ -13,8 +13,12 @@ the linearization, nothing more is dropped). The Hessian is the cost's own (Gaus
 constraints' curvature is left out), so with Mode I's quadratic cost it is constant and always
 positive semidefinite; a fixed point of the iteration is a KKT point of the NLP.
 
-Globalization: full steps; the warm start from the shifted previous plan is what keeps them in
-the region of full-step convergence. Converged (SUCCESS): the step's largest entry below
+Globalization: full steps by default; the warm start from the shifted previous plan is what keeps
+them in the region of full-step convergence. With `line_search`, a backtracking (Armijo) line
+search on the l1 merit function cost + rho |violation|_1 (Nocedal and Wright, Numerical
+Optimization, 2nd ed., Sec. 18.3: rho at least twice the QP's largest multiplier, so the QP step is
+a descent direction) makes the iteration converge from starts far from a solution; the feasibility
+certificate uses it (controller.feasibility). Converged (SUCCESS): the step's largest entry below
 `step_tol` and the constraint violation below `violation_tol`. At the iteration budget
 `max_iter` the iterate is FEASIBLE when its violation is below FEASIBLE_VIOLATION, else a
 REAL_TIME iterate when `real_time` is set (the real-time iteration of Diehl, Bock and Schloeder
@@ -44,6 +48,9 @@ class SQPSettings:
     qp_iter_max: int = 50  # HPIPM interior-point iterations
     qp_mode: str = "robust"  # HPIPM's preset: speed_abs, speed, balance or robust
     qp_tol: float = 1e-6  # HPIPM's residual tolerances (at 1e-8 it stalls at its cap with a solution accurate to 1e-13)
+    line_search: bool = False  # backtracking on the l1 merit function (else full steps)
+    armijo: float = 1e-4  # sufficient-decrease fraction of the merit's directional derivative
+    max_halvings: int = 10  # step halvings before the smallest step is taken anyway
 
 
 @dataclass(frozen=True)
@@ -134,19 +141,43 @@ class StageSQP:
         nz = pr.nx + pr.nv
         return np.concatenate([w[k * nz:k * nz + self.ns] for k in range(pr.horizon)])
 
-    def evaluate(self, w: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> tuple[float, float]:
-        """(largest violation of the stage constraints and of x_0 = p[:nx], cost) at w."""
+    def _violations(self, w: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> tuple[np.ndarray, float]:
+        """(every constraint's violation >= 0: the stage constraints, then x_0 = p[:nx]; cost) at w."""
         out = self._val(self._stages(w), p)
         c = out[0]
-        over = np.maximum(lbg - c, c - ubg)
-        return float(max(over.max(initial=0.0), np.abs(w[:self.pr.nx] - p[:self.pr.nx]).max())), float(out[1][0])
+        over = np.maximum(np.maximum(lbg - c, c - ubg), 0.0)
+        return np.concatenate([over, np.abs(w[:self.pr.nx] - p[:self.pr.nx])]), float(out[1][0])
+
+    def evaluate(self, w: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> tuple[float, float]:
+        """(largest violation of the stage constraints and of x_0 = p[:nx], cost) at w."""
+        over, cost = self._violations(w, p, lbg, ubg)
+        return float(over.max()), cost
+
+    def _step_length(self, w: np.ndarray, step: np.ndarray, slope: float, rho: float, p: np.ndarray,
+                     lbg: np.ndarray, ubg: np.ndarray, s: SQPSettings) -> float:
+        """The first of 1, 1/2, 1/4, ... that decreases the l1 merit cost + rho |violation|_1
+        sufficiently (Armijo), else 2^-max_halvings. `slope`: the cost's directional derivative
+        along step."""
+        over, cost = self._violations(w, p, lbg, ubg)
+        merit, l1 = cost + rho * over.sum(), over.sum()
+        derivative = slope - rho * l1  # the merit's directional derivative along a step that solves the QP
+        alpha = 1.0
+        for _ in range(s.max_halvings):
+            over_a, cost_a = self._violations(w + alpha * step, p, lbg, ubg)
+            if cost_a + rho * over_a.sum() <= merit + s.armijo * alpha * derivative:
+                break
+            alpha *= 0.5
+        return alpha
 
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray, lbg: np.ndarray,
-              ubg: np.ndarray) -> SQPResult:
+              ubg: np.ndarray, settings: SQPSettings | None = None) -> SQPResult:
         """From w0 with parameters p; lbw/ubw bound w, lbg/ubg bound the stage constraints (N nc,
-        stage-major; the dynamics rows must be 0)."""
+        stage-major; the dynamics rows must be 0). `settings` replaces the iteration settings
+        (max_iter, real_time, step_tol, violation_tol, line search) for this solve; the QP's are
+        fixed at construction."""
         t0 = time.perf_counter()
-        pr, s = self.pr, self.settings
+        pr, s = self.pr, settings or self.settings
+        rho = 0.0
         N, nx, nv, nu, nd, ns, ng = pr.horizon, pr.nx, pr.nv, self.nu, self.nd, self.ns, self.ng
         nz, nxu = nx + nv, nx + self.nu
         w = np.array(w0, float)
@@ -209,8 +240,14 @@ class StageSQP:
             dz = (T[:, nx:, :-1] @ dxu[:, :, None])[:, :, 0] + T[:, nx:, -1]
             for k in range(N):
                 step[k * nz + nxu:(k + 1) * nz] = dz[k]
-            w = w + step
-            if np.abs(step).max() < s.step_tol:
+            if s.line_search:
+                lam = np.concatenate([r["lam_a"].full().ravel(), r["lam_x"].full().ravel()])
+                rho = max(rho, 2.0 * float(np.abs(lam).max(initial=0.0)))
+                slope = float(np.sum(grad * self._stages(step).reshape(N, ns)))
+                w = w + self._step_length(w, step, slope, rho, p, lbg, ubg, s) * step
+            else:
+                w = w + step
+            if np.abs(step).max() < s.step_tol:  # (the full step: a short one does not mean converged)
                 status = SolverStatus.SUCCESS
                 break
         violation, cost = self.evaluate(w, p, lbg, ubg)

@@ -2,9 +2,10 @@
 control period.
 
 Mode selection (Algorithm 3): Mode I while the feasibility certificate (controller.feasibility:
-the braking rollout, the previous plan shifted, Mode I's fresh plan, then the minimum-violation
-problem) finds Mode I's feasible set non-empty; Mode II once it is empty (the contact plane is the
-one the braking rollout comes closest to); Mode III after the Mode II step taken with N_p = 1
+the braking rollout, the previous plan shifted, Mode I's fresh plan, Mode I's SQP with a line
+search, then the minimum-violation problem; a plan the line search certifies is the step's plan)
+finds Mode I's feasible set non-empty; Mode II once it is empty (the contact plane is the one the
+braking rollout comes closest to); Mode III after the Mode II step taken with N_p = 1
 (Algorithm 1); back to Mode I after a Mode III step once the hull's closing speed to the contact
 plane, measured at the start of the next step, is above `separation_speed` (0 by default).
 
@@ -129,10 +130,10 @@ class SwitchingNMPC:
             raise ValueError(f"failed thrusters {list(failed)}; allowed: indices 0..{nt - 1}")
         self.lo, self.hi = self.model.params.input_bounds()
         self.lo[list(failed)] = self.hi[list(failed)] = 0.0
-        for ocp in (self.mode1, self.feasibility.problem, *self._mode2.values(), *self._mode3.values()):
+        for ocp in (self.mode1, *self._mode2.values(), *self._mode3.values()):
             ocp.limit_inputs(self.lo, self.hi)
-        for policy in (self.feasibility.braking, self._hold):
-            policy.limit_thrust(self.lo, self.hi)
+        self.feasibility.limit_inputs(self.lo, self.hi)
+        self._hold.limit_thrust(self.lo, self.hi)
         self._plan = None
 
     # ------------------------------------------------------------------------------------------
@@ -230,7 +231,8 @@ class SwitchingNMPC:
             self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
             return self._step_mode2(h, cert)
         self._reported_mode = Mode.I
-        if cert is not None and cert.method is Method.MINIMUM_VIOLATION and cert.solution is not None:
+        if cert is not None and cert.method in (Method.GLOBALIZED_SQP, Method.MINIMUM_VIOLATION) \
+                and cert.solution is not None:
             guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)  # a better start than the fresh one
             fresh.clear()
         sol = fresh["sol"] if "sol" in fresh else ocp.solve(h, ref, self.current, previous=previous, guess=guess)

@@ -4,18 +4,21 @@ Two ground truths, side by side:
 - the model's maximum-braking rollout (controller.feasibility.FeasibilityTest.braking_rollout:
   attitude held, the joints held), evaluated at each speed (the issue's definition);
 - Mode I's feasible set F itself, decided with more solver effort than the certificate spends:
-  the braking rollout, else the minimum-violation problem from two starts (the braking rollout, as
-  the certificate, and the coasting state with zero inputs). A zero minimum violation from either
-  start is a feasible point of the OCP, a proof that F is not empty; "empty" means no start found
-  one: strong evidence, not a proof (the problem is not convex).
+  the braking rollout, else, from two starts (the braking rollout, as the certificate, and
+  coasting with zero inputs), the minimum-violation problem and the line-search SQP
+  (FeasibilityTest.search_plan). A zero minimum violation or a plan that satisfies the OCP's
+  constraints is a feasible point of the OCP, a proof that F is not empty; "empty" means no start
+  found one: strong evidence, not a proof (the problem is not convex).
 The braking rollout is not the model's best braking: the OCP also swings the arm (its reaction
 moves the hull) and tilts the hull to use the vertical thrusters, so it avoids walls the rollout
-hits. F's threshold speed v* (bisection on the second truth, per approach: hull front `gap` m from
-the wall, heading `angle` deg off its normal, arm stowed) sets the speeds 0.5, 0.8, 0.9, 1.1, 1.25
-and 1.5 v* (outside the +-5% band); each is labelled by both truths at that speed and given to the
-certificate. F is the OCP's, on the implicit midpoint rule at its nodes: the table also gives the
-certificate's plan's smallest clearance under fine RK4 (10 substeps an interval), which shows how
-far the true trajectory between and at the nodes departs from the discretized one.
+hits. F's threshold speed v* (bisection on the second truth, per approach: level hull facing the
+wall, arm stowed, its closest body `gap` m from the wall, velocity `angle` deg off the wall's
+normal) sets the speeds 0.5, 0.8, 0.9, 1.1, 1.25 and 1.5 v* (outside the +-5% band); each is
+labelled by both truths at that speed and given to the certificate (without a previous plan: its
+screens are the braking rollout, the line-search SQP from it, and the minimum-violation problem).
+F is the OCP's, on the implicit midpoint rule at its nodes: the table also gives the smallest
+clearance of the certificate's plan (when it has one) under fine RK4 (10 substeps an interval),
+which shows how far the true trajectory between and at the nodes departs from the discretized one.
 
 `python -m validation.certificate_accuracy` prints the table and writes
 bench/results/certificate_accuracy.md.
@@ -28,8 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.feasibility import FeasibilityTest, Verdict
+from controller.feasibility import FeasibilityTest, Method, Verdict
 from controller.model import UVMSModel
+from controller.rollouts import simulate
 from uvms import load_params, load_scene
 from validation.closed_loop import wall_x
 
@@ -48,16 +52,22 @@ class Case:
     rollout: Verdict  # the braking rollout's label at this speed
     truth: Verdict  # F's label at this speed (two starts)
     verdict: Verdict  # the certificate's
+    method: Method  # the certificate's evidence
     violation: float
     seconds: float
     fine_clearance: float  # m, the certificate's plan under fine RK4 (nan when a rollout certified)
 
 
-def approach(params, gap: float, angle: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
+def approach(test: FeasibilityTest, gap: float, angle: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
+    """Level hull facing the wall, arm stowed, the closest body (the stowed arm's base, 47 mm ahead
+    of the hull) `gap` m from the wall, moving at `speed` m/s `angle` deg off the wall's normal;
+    the task 1 m back from the wall."""
+    params = test.model.params
     n = params.n_joints
     h = np.zeros(params.n_states)
-    h[0] = wall_x() - params.hull.superellipsoid.semi_axes[0] - gap
     h[6:6 + n] = params.arm.stowed
+    wall = next(pl for pl in test.problem.planes if pl.name == "wall")
+    h[0] = float(np.min(np.asarray(test.model.distances(h, wall.normal, wall.offset)))) - gap  # (normal: -x)
     a = np.radians(angle)
     h[6 + n:8 + n] = speed * np.array([np.cos(a), np.sin(a)])
     ref = h.copy()
@@ -82,27 +92,30 @@ def fine_clearance(test: FeasibilityTest, h0: np.ndarray, us: np.ndarray, subste
 
 
 def f_feasible(test: FeasibilityTest, h: np.ndarray, ref: np.ndarray) -> bool:
-    """F's label: the braking rollout, else a zero minimum violation from either start."""
+    """F's label: the braking rollout, else, from either start (the braking rollout, coasting), a
+    zero minimum violation or a point of F from the line-search SQP (FeasibilityTest.search_plan)."""
     if rollout_feasible(test, h):
         return True
     p, N = test.problem, test.settings.horizon
     hs, us = test.braking_rollout(h)
-    coast = np.repeat(np.asarray(h, float)[None], N + 1, 0)
-    for guess in (p.guess_from_rollout(hs, us), p.guess_from_rollout(coast, np.zeros((N, p.nu)))):
-        sol = p.solve(h, ref, guess=guess)
+    zero = np.zeros((N, p.nu))
+    for start in ((hs, us), (simulate(test.model, h, zero, test.settings.dt), zero)):
+        sol = p.solve(h, ref, guess=p.guess_from_rollout(*start))
         if sol.status.usable and float(np.sum(sol.slack)) <= test.tolerance:
+            return True
+        if test.search_plan(h, ref, start) is not None:
             return True
     return False
 
 
-def threshold_speed(test: FeasibilityTest, params, gap: float, angle: float, steps: int = 10) -> float:
+def threshold_speed(test: FeasibilityTest, gap: float, angle: float, steps: int = 10) -> float:
     """F's threshold speed [m/s] by bisection on f_feasible (assumed monotone in speed) within
     0..1 m/s: the threshold times 1.5 stays within a BlueROV2's speeds (above about 1.8 m/s the
     model's quadratic drag makes feasibility non-monotone in speed)."""
     lo, hi = 0.0, 1.0
     for _ in range(steps):
         mid = 0.5 * (lo + hi)
-        h, ref = approach(params, gap, angle, mid)
+        h, ref = approach(test, gap, angle, mid)
         lo, hi = (mid, hi) if f_feasible(test, h, ref) else (lo, mid)
     return 0.5 * (lo + hi)
 
@@ -111,29 +124,30 @@ def label(ok: bool) -> Verdict:
     return Verdict.FEASIBLE if ok else Verdict.INFEASIBLE
 
 
-def evaluate(approaches=((0.05, 0.0), (0.1, 0.0), (0.05, 30.0), (0.1, 30.0))) -> list[Case]:
+def evaluate(approaches=((0.05, 0.0), (0.15, 0.0), (0.05, 30.0), (0.15, 30.0))) -> list[Case]:
     params, scene = load_params(), load_scene()
     test = FeasibilityTest(UVMSModel(params, scene.water), scene.planes)
     cases = []
     for gap, angle in approaches:
-        v_star = threshold_speed(test, params, gap, angle)
+        v_star = threshold_speed(test, gap, angle)
         for f in FACTORS:
-            h, ref = approach(params, gap, angle, f * v_star)
+            h, ref = approach(test, gap, angle, f * v_star)
             c = test(h, ref)
             fine = fine_clearance(test, h, c.solution.u) if c.solution is not None else np.nan
             cases.append(Case(gap, angle, f * v_star, v_star, label(rollout_feasible(test, h)),
-                              label(f_feasible(test, h, ref)), c.verdict, c.violation, c.solve_time, fine))
+                              label(f_feasible(test, h, ref)), c.verdict, c.method, c.violation, c.solve_time, fine))
     return cases
 
 
 def main() -> None:
     cases = evaluate()
     lines = ["| gap [m] | angle [deg] | v* of F [m/s] | speed / v* | braking rollout | F (2 starts) | "
-             "certificate | min. violation [m] | plan's clearance, fine RK4 [m] | time [s] |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "certificate | its evidence | min. violation [m] | plan's clearance, fine RK4 [m] | time [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in cases:
         lines.append(f"| {c.gap:g} | {c.angle:g} | {c.threshold:.3f} | {c.speed / c.threshold:.2f} | "
-                     f"{c.rollout.value} | {c.truth.value} | {c.verdict.value} | {c.violation:.4f} | "
+                     f"{c.rollout.value} | {c.truth.value} | {c.verdict.value} | {c.method.value} | "
+                     f"{c.violation:.4f} | "
                      f"{c.fine_clearance:.4f} | {c.seconds:.2f} |")
 
     def errors(truth: str) -> str:
