@@ -2,12 +2,12 @@
 control period.
 
 Mode selection (Algorithm 3): Mode I while the feasibility certificate (controller.feasibility:
-the braking rollout, the previous plan shifted, Mode I's fresh plan, Mode I's SQP with a line
-search, then the minimum-violation problem; a plan the line search certifies is the step's plan)
-finds Mode I's feasible set non-empty; Mode II once it is empty (the contact plane is the one the
-braking rollout comes closest to); Mode III after the Mode II step taken with N_p = 1
-(Algorithm 1); back to Mode I after a Mode III step once the hull's closing speed to the contact
-plane, measured at the start of the next step, is above `separation_speed` (0 by default).
+the braking rollout, the previous plan shifted, Mode I's fresh plan, optionally Mode I's SQP with
+a line search, then the minimum-violation problem) finds Mode I's feasible set non-empty; Mode II
+once it is empty (the contact plane is the one the braking rollout comes closest to); Mode III
+after the Mode II step taken with N_p = 1 (Algorithm 1); back to Mode I after a Mode III step once
+the hull's closing speed to the contact plane, measured at the start of the next step, is above
+`separation_speed` (0 by default).
 
 Before each solve the previous plan is shifted by one interval and its state trajectory
 recomputed from the measured state with the model's RK4 under the plan's inputs (and dt, and
@@ -62,6 +62,7 @@ class SwitchingSettings:
     mode2: ModeIISettings = field(default_factory=ModeIISettings)
     mode3: ModeIIISettings = field(default_factory=ModeIIISettings)
     feasibility_tolerance: float = 1e-3  # m, summed clearance violation
+    certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     separation_speed: float = 0.0  # m/s: Mode III -> I once the hull's closing speed exceeds this
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
@@ -106,7 +107,8 @@ class SwitchingNMPC:
             self.reference = lambda t: fixed
         self.current = np.asarray(settings.current, float)
         self.mode1 = ModeIOCP(model, planes, settings.mode1)
-        self.feasibility = FeasibilityTest(model, planes, settings.mode1, settings.feasibility_tolerance)
+        self.feasibility = FeasibilityTest(model, planes, settings.mode1, settings.feasibility_tolerance,
+                                           settings.certificate_search)
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))
         self._mode2: dict[int, ModeIIOCP] = {}
         self._mode3: dict[int, ModeIIIOCP] = {}

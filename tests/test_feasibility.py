@@ -21,6 +21,12 @@ def certificate(params, scene) -> FeasibilityTest:
     return FeasibilityTest(UVMSModel(params, scene.water), scene.planes)
 
 
+@pytest.fixture(scope="module")
+def searching(certificate, scene) -> FeasibilityTest:
+    """The certificate with its optional line-search SQP screen (20 iterations)."""
+    return FeasibilityTest(certificate.model, scene.planes, search_iterations=20)
+
+
 def approach(params, gap: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
     """Hull front `gap` [m] from the wall (hull superellipsoid semi-axis a ahead of its origin),
     moving at `speed` [m/s] towards it, arm stowed; the task target 1 m from the wall."""
@@ -37,12 +43,13 @@ def approach(params, gap: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
 @pytest.mark.parametrize(("gap", "speed", "verdict", "method"), [
     (1.5, 0.3, Verdict.FEASIBLE, Method.BRAKING_ROLLOUT),
     (0.2, 0.5, Verdict.FEASIBLE, Method.BRAKING_ROLLOUT),
-    (0.07, 0.3, Verdict.FEASIBLE, Method.GLOBALIZED_SQP),
+    (0.07, 0.3, Verdict.FEASIBLE, Method.MINIMUM_VIOLATION),
     (0.05, 0.8, Verdict.INFEASIBLE, Method.MINIMUM_VIOLATION),
 ], ids=["far", "braking suffices", "tight: the rollout fails, the OCP does not", "unavoidable"])
 def test_certificate(certificate, params, gap, speed, verdict, method) -> None:
     """The braking rollout certifies easy cases by exhibiting a feasible point; a tight case it
-    cannot certify is certified by the line-search SQP's plan; the unavoidable case (0.8 m/s, 5 cm:
+    cannot certify is certified by a zero minimum violation (below the 1 mm tolerance); the
+    unavoidable case (0.8 m/s, 5 cm:
     maximum braking needs about 7 cm) leaves a clearly positive minimum violation (more than 10
     times the tolerance; IPOPT's local optima here were 2.5 and 12.8 cm from two starting points:
     the problem is not convex)."""
@@ -78,44 +85,46 @@ def test_plan_screen_accepts_only_plans_inside_the_bounds(certificate, params) -
 
 
 @pytest.mark.slow
-def test_two_algorithms_agree_on_the_tight_case(params, scene) -> None:
-    """Independent evidence for the tight case above: with the line-search screen switched off, the
-    minimum-violation problem (IPOPT on the slack formulation, from the braking rollout) also finds
-    F non-empty (summed violation within the 1 mm tolerance)."""
+def test_two_algorithms_agree_on_the_tight_case(searching, params) -> None:
+    """Independent evidence for the tight case above, which the default certificate certifies by a
+    zero minimum violation (IPOPT on the slack formulation): the line-search SQP screen certifies
+    it too, and its plan's inputs re-simulated by RK4 (20 substeps an interval, independent of the
+    transcription) keep every body the 2 cm margin off every plane at every node, within the input
+    and joint bounds."""
     h, ref = approach(params, 0.07, 0.3)
-    c = FeasibilityTest(UVMSModel(params, scene.water), scene.planes, search_iterations=0)(h, ref)
-    assert (c.verdict, c.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
-
-
-@pytest.mark.slow
-def test_search_screen_avoids_a_false_unavoidable(certificate, params, scene) -> None:
-    """0.5 m/s with the hull's front 10 cm from the wall. The minimum-violation IPOPT fails on this
-    problem (an infinite violation: the certificate's safe side, 'unavoidable'); the line-search
-    SQP's plan shows F is not empty. Oracle: its inputs re-simulated by RK4 (20 substeps an
-    interval, independent of the transcription) keep every body at least the 2 cm margin off
-    every plane at every node, within the input and joint bounds."""
-    h, ref = approach(params, 0.1, 0.5)
-    c = certificate(h, ref)
+    c = searching(h, ref)
     assert (c.verdict, c.method) == (Verdict.FEASIBLE, Method.GLOBALIZED_SQP)
-    hs = simulate(certificate.model, h, c.solution.u, certificate.settings.dt, substeps=20)
-    assert certificate.plan_is_feasible(hs, c.solution.u)
-    # the premise: without the screen the certificate calls this approach unavoidable
-    alone = FeasibilityTest(certificate.model, scene.planes, search_iterations=0)(h, ref)
-    assert alone.verdict is Verdict.INFEASIBLE
+    assert searching.plan_is_feasible(simulate(searching.model, h, c.solution.u, searching.settings.dt, 20),
+                                      c.solution.u)
 
 
 @pytest.mark.slow
-def test_line_search_reaches_F_where_full_steps_do_not(certificate) -> None:
+def test_search_screen_avoids_a_false_unavoidable(certificate, searching, params) -> None:
+    """0.5 m/s with the hull's front 10 cm from the wall. The minimum-violation IPOPT fails on this
+    problem (an infinite violation), so the default certificate takes the safe side and says
+    'unavoidable'; the line-search SQP's plan shows that F is not empty. Oracle: its inputs
+    re-simulated by RK4 (20 substeps an interval) keep every body the 2 cm margin off every plane
+    at every node, within the input and joint bounds."""
+    h, ref = approach(params, 0.1, 0.5)
+    c = searching(h, ref)
+    assert (c.verdict, c.method) == (Verdict.FEASIBLE, Method.GLOBALIZED_SQP)
+    hs = simulate(searching.model, h, c.solution.u, searching.settings.dt, substeps=20)
+    assert searching.plan_is_feasible(hs, c.solution.u)
+    alone = certificate(h, ref)
+    assert alone.verdict is Verdict.INFEASIBLE and alone.violation == np.inf
+
+
+@pytest.mark.slow
+def test_line_search_reaches_F_where_full_steps_do_not(searching) -> None:
     """A step of the Kane-model closed loop with every thruster dead (validation.kane_closed_loop's
-    thrusters-dead approach at 0.7 m/s, before this screen existed, t = 0.7 s; recorded in
-    tests/data): only the arm's reaction can slow the hull. From the previous plan shifted, Mode
-    I's SQP with full steps ends 20 iterations with its constraints violated by more than 1 cm
-    (m, N or N m); with the l1-merit line search it
+    thrusters-dead approach, t = 0.7 s; recorded in tests/data): only the arm's reaction can slow
+    the hull. From the previous plan shifted, Mode I's SQP with full steps ends 20 iterations with
+    its constraints violated by more than 1e-2 (m, N or N m); with the l1-merit line search it
     reaches a point of F (violation below FEASIBLE_VIOLATION). Oracle: that plan's inputs
     re-simulated by RK4 (20 substeps an interval) keep every body within 0.5 mm of the 2 cm margin
     (the implicit midpoint rule at dt = 0.1 s and RK4 differ by that much here; measured 0.1 mm)."""
     rec = np.load(Path(__file__).parent / "data" / "thrusters_dead_drift_step.npz")
-    test = certificate
+    test = searching
     try:
         test.limit_inputs(rec["input_lo"], rec["input_hi"])
         guess = test.search.guess_from_rollout(rec["plan_h"], rec["plan_u"])
@@ -123,8 +132,7 @@ def test_line_search_reaches_F_where_full_steps_do_not(certificate) -> None:
                                  sqp=replace(test.search_settings, line_search=False))
         searched = test.search.solve(rec["h0"], rec["h_ref"], guess=guess, sqp=test.search_settings)
     finally:
-        lo, hi = test.model.params.input_bounds()
-        test.limit_inputs(lo, hi)
+        test.limit_inputs(*test.model.params.input_bounds())
     assert full.violation > 1e-2
     assert searched.violation <= FEASIBLE_VIOLATION
     hs = simulate(test.model, rec["h0"], searched.u, test.settings.dt, substeps=20)
