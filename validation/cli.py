@@ -85,7 +85,8 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--video", type=Path, help="write an MP4 rendered headlessly (EGL)")
     run.add_argument("--record", type=Path, help="write a Rerun recording (.rrd)")
     run.add_argument("--plots", type=Path, help="folder for telemetry figures (PNG)")
-    run.add_argument("--controller", default="switching", help="switching (default), mode1-only or braking")
+    run.add_argument("--controller", default="switching", help="switching (default), mode1-only, braking or "
+                     "switching-search (with the certificate's line-search screen)")
     for parser in (run,):
         parser.add_argument("--mismatch", default="default",
                             help='plant-vs-controller mismatch: "default", "none" or terms like added_mass*U(0.8,1.2)')

@@ -107,7 +107,8 @@ def build_plant(sc: Scenario, mismatch: str, seed: int) -> tuple[UVMSParams, Sce
     return params, scene, Plant(plant_params, plant_scene, PlantSettings(faults=faults)), drawn
 
 
-CONTROLLERS = ("switching", "mode1-only", "braking")
+CONTROLLERS = ("switching", "mode1-only", "braking", "switching-search")
+SEARCH_ITERATIONS = 20  # the certificate's line-search screen in "switching-search"
 
 
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
@@ -119,11 +120,14 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     (validation.mismatch; "" for none).
 
     `controller`: "switching" (ours), "mode1-only" (the same NMPC without switching: Mode I, with its
-    braking fallback when a solve fails) or "braking" (maximum thruster braking with attitude hold,
-    the arm held at its posture: controller.rollouts.BrakingPolicy)."""
+    braking fallback when a solve fails), "braking" (maximum thruster braking with attitude hold,
+    the arm held at its posture: controller.rollouts.BrakingPolicy) or "switching-search" (ours with
+    the certificate's optional line-search SQP screen, controller.feasibility)."""
     if controller not in CONTROLLERS:
         raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
-    settings = replace(settings or SwitchingSettings(), switching=controller != "mode1-only")
+    settings = settings or SwitchingSettings()
+    settings = replace(settings, switching=controller != "mode1-only", certificate_search=SEARCH_ITERATIONS
+                       if controller == "switching-search" else settings.certificate_search)
     for path in (out, video.parent if video else None, record.parent if record else None, plots):
         if path is not None:
             try:

@@ -62,6 +62,7 @@ def run(scenario: Scenario, settings: SwitchingSettings | None = None) -> Run:
     base = settings or SwitchingSettings()
     settings = SwitchingSettings(mode1=base.mode1, mode2=base.mode2, mode3=base.mode3,
                                  feasibility_tolerance=base.feasibility_tolerance,
+                                 certificate_search=base.certificate_search,
                                  separation_speed=base.separation_speed,
                                  current=scenario.current)
     h, ref = initial_state(params, scenario)
