@@ -153,8 +153,10 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
     min_dist = np.full((len(plant.geom_names), len(scene.planes)), np.inf)
     hull_impulse, link_impulse, hull_peak, ee_peak, steps, failed = 0.0, 0.0, 0.0, 0.0, [], False
-    telemetry: dict[str, list] = {k: [] for k in ("t", "u", "h", "hull_distance", "tip_distance", "tip_force")}
+    telemetry: dict[str, list] = {k: [] for k in ("t", "u", "h", "hull_distance", "link_distance", "tip_distance",
+                                                  "tip_force")}
     tip = plant.geom_names.index(TIP_GEOM) if TIP_GEOM in plant.geom_names else None
+    link_geoms = [i for i in range(len(plant.geom_names)) if i not in hull_geoms and i != tip]
     next_frame, wall_clock = 0.0, time.perf_counter()
     try:
         while plant.t < sc.duration - 1e-9:
@@ -179,6 +181,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
             telemetry["u"].append(report.u_applied)
             telemetry["h"].append(report.h)
             telemetry["hull_distance"].append(float(report.distances[hull_geoms, wall].min()))
+            telemetry["link_distance"].append(float(report.distances[link_geoms, wall].min()) if link_geoms else np.nan)
             telemetry["tip_distance"].append(float(report.distances[tip, wall]) if tip is not None else np.nan)
             telemetry["tip_force"].append(max((c.peak_normal_force for c in report.contacts if c.geom == TIP_GEOM),
                                               default=0.0))

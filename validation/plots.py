@@ -25,8 +25,9 @@ def _shade_modes(ax, t: np.ndarray, modes: list[str], t_end: float) -> None:
 
 def write(telemetry: dict[str, np.ndarray], modes: list[str], names: dict[str, list[str]], folder: Path) -> list[Path]:
     """Figures: control inputs (thrust, joint torques), states (position, attitude, joint angles),
-    distances (hull and tip to the wall) and the contact force. `telemetry` holds arrays over the
-    steps: t, u (steps, nu), h (steps, ns), hull_distance, tip_distance, tip_force."""
+    distances (hull, the closest other arm link and the tip to the wall) and the contact force.
+    `telemetry` holds arrays over the steps: t, u (steps, nu), h (steps, ns), hull_distance,
+    link_distance, tip_distance, tip_force."""
     folder.mkdir(parents=True, exist_ok=True)
     t, u, h = telemetry["t"], telemetry["u"], telemetry["h"]
     t_end = float(t[-1]) if len(t) else 0.0
@@ -39,7 +40,9 @@ def write(telemetry: dict[str, np.ndarray], modes: list[str], names: dict[str, l
                        ("joint angle [rad]", h[:, 6:6 + n], names["joints"]),
                        ("body velocity [m/s]", h[:, 6 + n:9 + n], ["u", "v", "w"])],
         "contact.png": [("distance to the wall [m]", np.column_stack([telemetry["hull_distance"],
-                                                                     telemetry["tip_distance"]]), ["hull", "tip"]),
+                                                                     telemetry["link_distance"],
+                                                                     telemetry["tip_distance"]]),
+                         ["hull", "other arm links (closest)", "tip"]),
                         ("tip contact force [N]", telemetry["tip_force"][:, None], ["peak normal force"])],
     }
     written = []
