@@ -7,12 +7,13 @@ a line search, then the minimum-violation problem) finds Mode I's feasible set n
 once it is empty (the contact plane is the one the braking rollout comes closest to); Mode III
 after the Mode II step taken with N_p = 1 (Algorithm 1); back to Mode I after a Mode III step once
 the hull moves away from the contact plane faster than `separation_speed` (0.05 m/s), measured at
-the start of the next step. The paper's condition is d_0' > 0; it assumes that Mode I is feasible
-again once the hull stops approaching. Under a current that keeps pushing towards the wall that
-assumption fails: the arm let go, the current pushed the vehicle back, and the modes cycled with
-the hull a little closer each time. In MuJoCo (wall-headon, wall-oblique, arm-deployed, six seeds
-each, default mismatch), 0.05 m/s turned 8 of 18 successes into 13 and 65 N s of arm-link
-impulse into 18 (0.1 m/s did the same, with fewer returns to Mode I); the note on issue 4.
+the start of the next step, or as soon as a Mode III step cannot use its solve (Mode I's
+certificate then decides afresh; on the Kane model with every thruster dead and a current,
+holding Mode III through 34 failed solves let the hull drift onto the wall). The
+paper's condition is d_0' > 0; it assumes that Mode I is feasible again once the hull stops
+approaching. Under a current that keeps pushing towards the wall that assumption fails: the arm
+let go, the current pushed the vehicle back, and the modes cycled with the hull a little closer
+each time (the note on issue 4 has the measurements).
 
 Before each solve the previous plan is shifted by one interval and its state trajectory
 recomputed from the measured state with the model's RK4 under the plan's inputs (and dt, and
@@ -129,6 +130,7 @@ class SwitchingNMPC:
         self._horizon2 = settings.mode2.horizon
         self._last_u = np.zeros(model.n_inputs)
         self._reported_mode = Mode.I
+        self._mode3_fell_back = False  # the last Mode III step could not use its solve
 
     def set_failed_thrusters(self, failed: Sequence[int]) -> None:
         """Thrusters known to be dead from now on (input bounds 0 in every mode and fallback)."""
@@ -194,8 +196,8 @@ class SwitchingNMPC:
             raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
                              f"{self.model.n_states} finite numbers")
         distances, closing = self._geometry(h)
-        if (self.mode is Mode.III and self._reported_mode is Mode.III
-                and closing[self.contact, 0] > self.settings.separation_speed):
+        if self.mode is Mode.III and self._reported_mode is Mode.III and (
+                self._mode3_fell_back or closing[self.contact, 0] > self.settings.separation_speed):
             self.mode, self._plan = Mode.I, None
         t0 = time.perf_counter()
         if self.mode is Mode.I:
@@ -296,6 +298,7 @@ class SwitchingNMPC:
             duals = None
         sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
+        self._mode3_fell_back = not sol.status.usable
         if sol.status.usable:
             self._plan, self._recomputed = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp)
             return (sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
