@@ -17,9 +17,12 @@ Globalization: full steps by default; the warm start from the shifted previous p
 them in the region of full-step convergence. With `line_search`, a backtracking (Armijo) line
 search on the l1 merit function cost + rho |violation|_1 (Nocedal and Wright, Numerical
 Optimization, 2nd ed., Sec. 18.3: rho at least twice the QP's largest multiplier, so the QP step is
-a descent direction) makes the iteration converge from starts far from a solution; the feasibility
-certificate uses it (controller.feasibility). Converged (SUCCESS): the step's largest entry below
-`step_tol` and the constraint violation below `violation_tol`. At the iteration budget
+a descent direction) keeps iterates from wandering where full steps do (the feasibility
+certificate's optional screen, from shifted plans in a drift with dead thrusters:
+controller.feasibility); from cold starts with working thrusters full steps converge as fast or
+faster, since the merit function also cuts good steps (the Maratos effect).
+Converged (SUCCESS): the step's largest entry below `step_tol` and the constraint violation below
+`violation_tol`. At the iteration budget
 `max_iter` the iterate is FEASIBLE when its violation is below FEASIBLE_VIOLATION, else a
 REAL_TIME iterate when `real_time` is set (the real-time iteration of Diehl, Bock and Schloeder
 2005 with max_iter = 1: one QP per control period, the iterates converge over the periods), else

@@ -45,7 +45,7 @@ from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
 from controller.model import UVMSModel
-from controller.rollouts import BrakingPolicy, JointHold
+from controller.rollouts import BrakingPolicy, JointHold, simulate
 from uvms.scene import Plane
 
 
@@ -173,18 +173,17 @@ class SwitchingNMPC:
 
     def _resimulate(self, h0: np.ndarray, us: np.ndarray, dt: float, forces: np.ndarray | None = None,
                     ocp3: ModeIIIOCP | None = None) -> np.ndarray:
-        """The Final Algorithm's state trajectory of the inputs (RK4, 4 substeps per interval)."""
+        """The Final Algorithm's state trajectory of the inputs (RK4, 4 substeps per interval); with
+        Mode III's contact forces and OCP, each node is put back on the plane."""
+        if forces is None:
+            return simulate(self.model, h0, us, dt, current=self.current)
         hs = [np.asarray(h0, float)]
         for k, uk in enumerate(us):
             h = hs[-1]
             for _ in range(4):
-                if forces is None:
-                    h = self.model.step(h, uk, dt / 4, vc=self.current)
-                else:
-                    h = self.model.step(h, uk, dt / 4, Fw=np.concatenate([forces[k], np.zeros(3)]), Rw=ocp3.Rw,
-                                        vc=self.current)
-            if ocp3 is not None:
-                h[6:6 + self.model.n_joints] = ocp3.onto_plane(h)
+                h = self.model.step(h, uk, dt / 4, Fw=np.concatenate([forces[k], np.zeros(3)]), Rw=ocp3.Rw,
+                                    vc=self.current)
+            h[6:6 + self.model.n_joints] = ocp3.onto_plane(h)
             hs.append(h)
         return np.array(hs)
 
