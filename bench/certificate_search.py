@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from controller.switching import Mode, SwitchingSettings
+from validation.closed_loop import SEARCH_ITERATIONS as SEARCH
 from validation.kane_closed_loop import SCENARIOS, run
 
 OUT = Path(__file__).resolve().parent / "results" / "certificate_search.md"
-SEARCH = 20  # iterations (validation.closed_loop.SEARCH_ITERATIONS)
 
 
 def main() -> None:

@@ -36,11 +36,11 @@ from controller.feasibility import FeasibilityTest, Method, Verdict
 from controller.model import UVMSModel
 from controller.rollouts import simulate
 from uvms import load_params, load_scene
+from validation.closed_loop import SEARCH_ITERATIONS as SEARCH
 from validation.closed_loop import wall_x
 
 FACTORS = (0.5, 0.8, 0.9, 1.1, 1.25, 1.5)
 OUT = Path(__file__).resolve().parent.parent / "bench" / "results"
-SEARCH = 20  # iterations of the certificate's optional line-search SQP screen
 
 
 @dataclass(frozen=True)
