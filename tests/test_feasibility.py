@@ -49,10 +49,9 @@ def approach(params, gap: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
 def test_certificate(certificate, params, gap, speed, verdict, method) -> None:
     """The braking rollout certifies easy cases by exhibiting a feasible point; a tight case it
     cannot certify is certified by a zero minimum violation (below the 1 mm tolerance); the
-    unavoidable case (0.8 m/s, 5 cm:
-    maximum braking needs about 7 cm) leaves a clearly positive minimum violation (more than 10
-    times the tolerance; IPOPT's local optima here were 2.5 and 12.8 cm from two starting points:
-    the problem is not convex)."""
+    unavoidable case (0.8 m/s, 5 cm: maximum braking needs about 7 cm) leaves a clearly positive
+    minimum violation (more than 10 times the tolerance; IPOPT's local optima here were 2.5 and
+    12.8 cm from two starting points: the problem is not convex)."""
     h, ref = approach(params, gap, speed)
     c = certificate(h, ref)
     assert (c.verdict, c.method) == (verdict, method)
