@@ -7,6 +7,7 @@ import hashlib
 import os
 import subprocess
 import tempfile
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import casadi as ca
@@ -15,31 +16,41 @@ import numpy as np
 CACHE = Path(os.environ.get("UVMS_CODEGEN_CACHE", Path.home() / ".cache" / "uvms-codegen"))
 
 
+GCC = ("gcc", "-O1", "-fPIC", "-shared")
+
+
 def compiled(functions: list[ca.Function], name: str) -> dict[str, ca.Function]:
-    """The functions compiled to one shared object (gcc -O1), cached by a hash of their C code."""
-    gen = ca.CodeGenerator(f"{name}.c", {"with_header": False})
-    for f in functions:
-        gen.add(f)
-    with tempfile.TemporaryDirectory() as tmp:
-        cwd = os.getcwd()
-        os.chdir(tmp)
-        try:
-            gen.generate()
-            source = Path(tmp, f"{name}.c").read_bytes()
-        finally:
-            os.chdir(cwd)
-    key = hashlib.sha256(source).hexdigest()[:16]
+    """The functions compiled to one shared object (gcc -O1), cached on disk (`compiled_lazily`)."""
+    return compiled_lazily(name, [f.name() for f in functions], functions, lambda: functions)
+
+
+def compiled_lazily(name: str, names: Sequence[str], sources: Sequence[ca.Function],
+                    derive: Callable[[], list[ca.Function]], recipe: str = "") -> dict[str, ca.Function]:
+    """The functions `names`, made by `derive()` from `sources`, compiled to one shared object and
+    cached on disk under a hash of the sources' serialized definitions, of `recipe` (how derive
+    makes them: e.g. its source code), of CasADi's version and of the compiler's flags. `derive`
+    (symbolic derivatives, code generation: about 1 s for a mode's stage functions) runs only on a
+    cache miss; a hit costs the serialization (about 10 ms)."""
+    digest = hashlib.sha256(f"{ca.__version__}|{' '.join(GCC)}|{recipe}|{'|'.join(names)}".encode())
+    for f in sources:
+        digest.update(f.serialize().encode())
+    key = digest.hexdigest()[:16]
     CACHE.mkdir(parents=True, exist_ok=True)
     so = CACHE / f"{name}_{key}.so"
     if not so.exists():
-        c = CACHE / f"{name}_{key}.c"
-        c.write_bytes(source)
-        tmp_so = so.with_suffix(f".{os.getpid()}.tmp")
-        subprocess.run(["gcc", "-O1", "-fPIC", "-shared", str(c), "-o", str(tmp_so)], check=True)
+        functions = derive()
+        if [f.name() for f in functions] != list(names):
+            raise ValueError(f"derive() made {[f.name() for f in functions]}; allowed: {list(names)}")
+        gen = ca.CodeGenerator(f"{name}.c", {"with_header": False})
+        for f in functions:
+            gen.add(f)
+        with tempfile.TemporaryDirectory() as tmp:
+            gen.generate(f"{tmp}{os.sep}")
+            tmp_so = so.with_suffix(f".{os.getpid()}.tmp")
+            subprocess.run([*GCC, str(Path(tmp, f"{name}.c")), "-o", str(tmp_so)], check=True)
         tmp_so.replace(so)  # atomic: parallel runs never load a half-written file
-        c.unlink()
     # finite differences only so that CasADi can build (never evaluate) derivative functions
-    return {f.name(): ca.external(f.name(), str(so), {"enable_fd": True}) for f in functions}
+    return {n: ca.external(n, str(so), {"enable_fd": True}) for n in names}
 
 
 class NumpyCall:

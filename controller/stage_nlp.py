@@ -11,11 +11,12 @@ Here the per-stage constraint Jacobian and Lagrangian Hessian are derived once i
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 
 import casadi as ca
 
-from controller.codegen import compiled
+from controller.codegen import compiled_lazily
 
 
 @dataclass(frozen=True)
@@ -59,12 +60,21 @@ class StageProblem:
         return self.horizon * (self.nx + self.nv) + self.nx
 
 def stage_functions(problem: StageProblem, name: str) -> dict[str, ca.Function]:
-    """The per-stage and terminal functions, compiled (`compiled`): {name}_g (c), _jac (c, dc/ds),
-    _grad (cost, its gradient), _hess (Hessian of lam_f cost + lam_c.c in s) and the terminal
-    _tg, _tjac, _tgrad, _thess. The code depends on the stage and terminal functions only, not on
-    the horizon: problems that differ in N alone share one shared object (Mode II's variable
-    horizon)."""
+    """The per-stage and terminal functions, compiled and cached (controller.codegen.compiled_lazily:
+    derived only when the cache lacks them): {name}_g (c), _jac (c, dc/ds), _grad (cost, its
+    gradient), _hess (Hessian of lam_f cost + lam_c.c in s) and the terminal _tg, _tjac, _tgrad,
+    _thess. The code depends on the stage and terminal functions only, not on the horizon: problems
+    that differ in N alone share one shared object (Mode II's variable horizon)."""
     pr = problem
+    names = [f"{name}_{s}" for s in ("g", "jac", "grad", "hess", "tg", "tjac", "tgrad", "thess")]
+    sources = [f for f in (pr.cost, pr.constraints, pr.terminal_cost, pr.terminal_constraints) if f is not None]
+    shape = f"nx={pr.nx} nv={pr.nv} np={pr.np} np_stage={pr.np_stage}"
+    return compiled_lazily(name, names, sources, lambda: _derive(pr, name),
+                           recipe=shape + inspect.getsource(_derive))
+
+
+def _derive(pr: StageProblem, name: str) -> list[ca.Function]:
+    """stage_functions' functions, derived symbolically (SX)."""
     nx, nv = pr.nx, pr.nv
     ns, npk = 2 * nx + nv, pr.np + pr.np_stage
     s, p, x, pg = ca.SX.sym("s", ns), ca.SX.sym("p", npk), ca.SX.sym("x", nx), ca.SX.sym("pg", pr.np)
@@ -87,7 +97,7 @@ def stage_functions(problem: StageProblem, name: str) -> dict[str, ca.Function]:
         ca.Function(f"{name}_tgrad", [x, pg], [tf, ca.gradient(tf, x)]),
         ca.Function(f"{name}_thess", [x, pg, lam_f, lam_t], [ca.hessian(lam_f * tf + ca.dot(lam_t, tc), x)[0]]),
     ]
-    return compiled(fns, name)
+    return fns
 
 
 def build_solver(problem: StageProblem, name: str, ipopt_options: dict,
