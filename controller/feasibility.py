@@ -76,7 +76,7 @@ class FeasibilityTest:
     """Decide F != {} for Mode I's OCP (same model, planes and settings)."""
 
     def __init__(self, model: UVMSModel, planes: Sequence[Plane], settings: ModeISettings | None = None,
-                 tolerance: float = 1e-3, search_iterations: int = 0):
+                 tolerance: float = 1e-3, search_iterations: int = 0, warm_start: bool = False):
         """`search_iterations`: the line-search SQP screen's budget (0: no such screen; 20 is the
         tested value; it also needs settings.compiled)."""
         settings = settings or ModeISettings()
@@ -90,6 +90,9 @@ class FeasibilityTest:
         cold = replace(settings, max_iter=max(settings.max_iter, 300), ipopt_options={
             "warm_start_init_point": "no", "mu_init": 0.1, **settings.ipopt_options})
         self.problem = ModeIOCP(model, planes, cold, min_violation=True)
+        self.warm = ModeIOCP(model, planes, replace(cold, ipopt_options={
+            "warm_start_init_point": "no", "mu_init": 1e-4, **settings.ipopt_options}), min_violation=True) \
+            if warm_start else None
         self.braking = BrakingPolicy(model)
         self.search = ModeIOCP(model, planes, replace(settings, solver=Solver.SQP)) \
             if settings.compiled and search_iterations > 0 else None
@@ -98,7 +101,7 @@ class FeasibilityTest:
 
     def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Replace the input bounds of every problem and rollout (e.g. known-failed thrusters: both 0)."""
-        for ocp in (self.problem, self.search):
+        for ocp in (self.problem, self.search, self.warm):
             if ocp is not None:
                 ocp.limit_inputs(lo, hi)
         self.braking.limit_thrust(lo, hi)
@@ -156,7 +159,10 @@ class FeasibilityTest:
         sol = self.search_plan(h0, h_ref, plan if plan is not None else (hs, us), current)
         if sol is not None:
             return Certificate(Verdict.FEASIBLE, Method.GLOBALIZED_SQP, 0.0, margin, time.perf_counter() - t0, sol, hs)
-        sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
+        if self.warm is not None and candidate is not None:
+            sol = self.warm.solve(h0, h_ref, current, guess=self.warm.guess_from_rollout(*candidate))
+        else:
+            sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
         violation = float(np.sum(sol.slack)) if sol.status.usable else np.inf
         verdict = Verdict.FEASIBLE if violation <= self.tolerance else Verdict.INFEASIBLE
         return Certificate(verdict, Method.MINIMUM_VIOLATION, violation, margin, time.perf_counter() - t0, sol, hs)

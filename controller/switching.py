@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
@@ -68,6 +68,8 @@ class SwitchingSettings:
     mode2: ModeIISettings = field(default_factory=ModeIISettings)
     mode3: ModeIIISettings = field(default_factory=ModeIIISettings)
     feasibility_tolerance: float = 1e-3  # m, summed clearance violation
+    certificate_margin: float | None = None  # m, the clearance the certificate asks of F's plans (None: Mode I's)
+    certificate_warm_start: bool = False
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0)
@@ -113,8 +115,10 @@ class SwitchingNMPC:
             self.reference = lambda t: fixed
         self.current = np.asarray(settings.current, float)
         self.mode1 = ModeIOCP(model, planes, settings.mode1)
-        self.feasibility = FeasibilityTest(model, planes, settings.mode1, settings.feasibility_tolerance,
-                                           settings.certificate_search)
+        certified = settings.mode1 if settings.certificate_margin is None else replace(
+            settings.mode1, distance_margin=settings.certificate_margin)
+        self.feasibility = FeasibilityTest(model, planes, certified, settings.feasibility_tolerance,
+                                           settings.certificate_search, settings.certificate_warm_start)
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))
         self._mode2: dict[int, ModeIIOCP] = {}
         self._mode3: dict[int, ModeIIIOCP] = {}

@@ -18,6 +18,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless
 
 import json
 import time
+from collections.abc import Callable
 from dataclasses import asdict, replace
 from enum import Enum
 from pathlib import Path
@@ -107,8 +108,20 @@ def build_plant(sc: Scenario, mismatch: str, seed: int) -> tuple[UVMSParams, Sce
     return params, scene, Plant(plant_params, plant_scene, PlantSettings(faults=faults)), drawn
 
 
-CONTROLLERS = ("switching", "mode1-only", "braking", "switching-search")
 SEARCH_ITERATIONS = 20  # the certificate's line-search screen in "switching-search"
+CONTACT_MARGIN = 0.02  # m: Modes II and III's body clearance in "switching-contact-margin" (default 5 mm)
+# The controllers by name: how each changes the given SwitchingSettings ("braking" does not use them).
+# The variants of ours are the A/B cases of issue 4's note (bench/results/switch_variants).
+CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
+    "switching": lambda s: s,
+    "mode1-only": lambda s: replace(s, switching=False),
+    "braking": lambda s: s,
+    "switching-search": lambda s: replace(s, certificate_search=SEARCH_ITERATIONS),
+    "switching-warm": lambda s: replace(s, certificate_warm_start=True),
+    "switching-warm-margin": lambda s: replace(s, certificate_warm_start=True, certificate_margin=0.04),
+    "switching-contact-margin": lambda s: replace(s, mode2=replace(s.mode2, distance_margin=CONTACT_MARGIN),
+                                                  mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
+}
 
 
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
@@ -121,13 +134,14 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
 
     `controller`: "switching" (ours), "mode1-only" (the same NMPC without switching: Mode I, with its
     braking fallback when a solve fails), "braking" (maximum thruster braking with attitude hold,
-    the arm held at its posture: controller.rollouts.BrakingPolicy) or "switching-search" (ours with
-    the certificate's optional line-search SQP screen, controller.feasibility)."""
+    the arm held at its posture: controller.rollouts.BrakingPolicy), or a variant of ours:
+    "switching-search" (the certificate's optional line-search SQP screen, controller.feasibility),
+    "switching-warm" (the minimum-violation problem started from Mode I's fresh plan),
+    "switching-warm-margin" (that, and a certificate asking 4 cm of clearance instead of Mode I's 2
+    cm) or "switching-contact-margin" (Modes II and III keep bodies 2 cm off instead of 5 mm)."""
     if controller not in CONTROLLERS:
         raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
-    settings = settings or SwitchingSettings()
-    settings = replace(settings, switching=controller != "mode1-only", certificate_search=SEARCH_ITERATIONS
-                       if controller == "switching-search" else settings.certificate_search)
+    settings = CONTROLLERS[controller](settings or SwitchingSettings())
     for path in (out, video.parent if video else None, record.parent if record else None, plots):
         if path is not None:
             try:
