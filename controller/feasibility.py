@@ -28,6 +28,13 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    iteration cap counts with its slack sum (an upper bound on the minimum). If IPOPT fails on this
    always-feasible problem, F is declared empty (the safe side: the strategy prepares for contact)
    and the certificate says so by an infinite violation.
+   Optional (`warm_start`; off by default): start it instead from the fresh Mode I plan (when there
+   is one) with a small initial barrier (mu_init 1e-4). On the 11 minimum-violation calls of a
+   MuJoCo run of wall-headon (seed 1, 3 s) the default start failed on 3 (in 2.5, 2.6 and 9.6 s:
+   each of them a switch to Mode II) and this one on none: every one of the 11 has a zero minimum
+   violation. In closed loop the switches then come later and MuJoCo's runs end worse (the note on
+   issue 4, bench/results/switch_variants): under plant-model mismatch "F is empty on the model"
+   comes too late, and the default's failures stand in for a robustness margin.
 """
 
 from __future__ import annotations
@@ -78,7 +85,8 @@ class FeasibilityTest:
     def __init__(self, model: UVMSModel, planes: Sequence[Plane], settings: ModeISettings | None = None,
                  tolerance: float = 1e-3, search_iterations: int = 0, warm_start: bool = False):
         """`search_iterations`: the line-search SQP screen's budget (0: no such screen; 20 is the
-        tested value; it also needs settings.compiled)."""
+        tested value; it also needs settings.compiled). `warm_start`: the minimum-violation problem
+        starts from the fresh Mode I plan when there is one (the module's docstring)."""
         settings = settings or ModeISettings()
         self.model, self.settings, self.tolerance = model, settings, tolerance
         # Started cold from the rollout: a large initial barrier and no warm-start point work best

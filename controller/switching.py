@@ -69,7 +69,7 @@ class SwitchingSettings:
     mode3: ModeIIISettings = field(default_factory=ModeIIISettings)
     feasibility_tolerance: float = 1e-3  # m, summed clearance violation
     certificate_margin: float | None = None  # m, the clearance the certificate asks of F's plans (None: Mode I's)
-    certificate_warm_start: bool = False
+    certificate_warm_start: bool = False  # minimum violation from Mode I's fresh plan (controller.feasibility)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0)

@@ -136,3 +136,32 @@ def test_line_search_reaches_F_where_full_steps_do_not(searching) -> None:
     assert searched.violation <= FEASIBLE_VIOLATION
     hs = simulate(test.model, rec["h0"], searched.u, test.settings.dt, substeps=20)
     assert test.min_clearance(hs) >= test.settings.distance_margin - 5e-4
+
+
+@pytest.mark.slow
+def test_warm_start_finds_F_where_the_default_start_fails(certificate, scene) -> None:
+    """A certificate call of a MuJoCo closed loop (wall-headon, mismatch seed 1, t = 1.9 s; recorded
+    in tests/data with Mode I's fresh plan): the screens fail, and the minimum-violation problem
+    from the braking rollout ends in an IPOPT failure, so the default certificate says F is empty
+    (infinite violation) and the controller switched to Mode II there. Started from the fresh plan
+    (`warm_start`), it finds a zero minimum violation. Oracle: that plan's inputs re-simulated by
+    RK4 (20 substeps an interval, the recorded current) stay within bounds and keep every body at
+    least the 2 cm margin off (measured 4.9 cm)."""
+    rec = np.load(Path(__file__).parent / "data" / "wall_headon_certificate_call.npz")
+    warm = FeasibilityTest(certificate.model, scene.planes, warm_start=True)
+    fresh = (rec["fresh_h"], rec["fresh_u"])
+    verdicts = []
+    for test in (certificate, warm):
+        try:
+            test.limit_inputs(rec["input_lo"], rec["input_hi"])
+            verdicts.append(test(rec["h0"], rec["h_ref"], rec["current"], fresh=lambda: fresh))
+            if test is warm:
+                hs = simulate(test.model, rec["h0"], verdicts[-1].solution.u, test.settings.dt, substeps=20,
+                              current=rec["current"])
+                within = test.problem.plan_within_bounds(hs, verdicts[-1].solution.u)
+        finally:
+            test.limit_inputs(*test.model.params.input_bounds())
+    default, started = verdicts
+    assert default.verdict is Verdict.INFEASIBLE and default.violation == np.inf
+    assert started.verdict is Verdict.FEASIBLE and started.method is Method.MINIMUM_VIOLATION
+    assert within and warm.min_clearance(hs) >= warm.settings.distance_margin
