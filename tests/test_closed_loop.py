@@ -69,8 +69,13 @@ def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     assert s["hull_contact_impulse"] == 0.0 and s["link_contact_impulse"] == 0.0
     assert s["ee_peak_contact_force"] > s["max_total_thrust_along_wall_normal"]
     assert video.stat().st_size > 10_000
-    assert json.loads((tmp_path / "summary.json").read_text())["verdict"] == "success"
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["verdict"] == "success"
     assert np.isfinite(s["final_task_error"])
+    # the switch to Mode II is the step whose certificate found F empty
+    first = next(k for k, step in enumerate(summary["steps"]) if step["mode"] == "II")
+    assert summary["steps"][first]["certificate"]["verdict"] == "infeasible"
+    assert all(step["certificate"]["verdict"] == "feasible" for step in summary["steps"][:first])
 
 
 @pytest.mark.slow

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from controller.feasibility import Certificate
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
@@ -124,6 +125,15 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
 }
 
 
+def certificate_row(c: Certificate | None) -> dict | None:
+    """A step's feasibility certificate for summary.json: the verdict, its evidence, the minimum
+    violation [m] (null: IPOPT failed, which counts as F empty) and the time [s]."""
+    if c is None:
+        return None
+    return {"verdict": c.verdict.value, "method": c.method.value,
+            "violation": c.violation if np.isfinite(c.violation) else None, "seconds": c.solve_time}
+
+
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
         plots: Path | None = None,
         settings: SwitchingSettings | None = None, controller: str = "switching",
@@ -209,9 +219,10 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
                     link_impulse += float(np.linalg.norm(c.impulse))
             steps.append({"t": t, "dt": dt, "mode": info.mode.value, "status": info.status.value,
                           "fallback": info.fallback.value, "solve_time": info.solve_time, "ocp_time": info.ocp_time,
-                          "iterations": info.iterations, "horizon": info.horizon} if info else
+                          "iterations": info.iterations, "horizon": info.horizon,
+                          "certificate": certificate_row(info.certificate)} if info else
                          {"t": t, "dt": dt, "mode": "braking", "status": "-", "fallback": Fallback.NONE.value,
-                          "solve_time": 0.0, "ocp_time": 0.0, "iterations": 0, "horizon": 0})
+                          "solve_time": 0.0, "ocp_time": 0.0, "iterations": 0, "horizon": 0, "certificate": None})
             while recorder is not None and next_frame <= plant.t + 1e-9:
                 recorder.capture()
                 next_frame += 1.0 / VIDEO_FPS
