@@ -76,6 +76,8 @@ def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     first = next(k for k, step in enumerate(summary["steps"]) if step["mode"] == "II")
     assert summary["steps"][first]["certificate"]["verdict"] == "infeasible"
     assert all(step["certificate"]["verdict"] == "feasible" for step in summary["steps"][:first])
+    entries = sum(a == "I" and b == "II" for a, b in zip(s["modes"], s["modes"][1:], strict=False))
+    assert int(s["switches"].split()[0]) == entries
 
 
 @pytest.mark.slow

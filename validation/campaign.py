@@ -17,7 +17,7 @@ from validation.scenarios import Scenario
 
 FIELDS = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
           "ee_peak_contact_force", "link_contact_impulse", "max_total_thrust_along_wall_normal",
-          "final_task_error", "fallbacks", "wall_clock_s", "reason")
+          "final_task_error", "fallbacks", "switches", "wall_clock_s", "reason")
 
 
 @dataclass(frozen=True)
@@ -73,7 +73,7 @@ def _fmt(v) -> str:
 
 def markdown(rows: list[dict]) -> str:
     cols = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
-            "ee_peak_contact_force", "link_contact_impulse", "fallbacks")
+            "ee_peak_contact_force", "link_contact_impulse", "fallbacks", "switches")
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     lines += ["| " + " | ".join(_fmt(r.get(c, "")) for c in cols) + " |" for r in rows]
     controllers = list(dict.fromkeys(r["controller"] for r in rows))

@@ -134,6 +134,14 @@ def certificate_row(c: Certificate | None) -> dict | None:
             "violation": c.violation if np.isfinite(c.violation) else None, "seconds": c.solve_time}
 
 
+def switches(steps: list[dict]) -> str:
+    """"n (k by solver failure)": the steps whose certificate found F empty (each a switch from
+    Mode I to Mode II), and how many of those verdicts came from an IPOPT failure on the
+    minimum-violation problem rather than a positive minimum."""
+    empty = [s["certificate"] for s in steps if s["certificate"] and s["certificate"]["verdict"] == "infeasible"]
+    return f"{len(empty)} ({sum(c['violation'] is None for c in empty)} by solver failure)"
+
+
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
         plots: Path | None = None,
         settings: SwitchingSettings | None = None, controller: str = "switching",
@@ -256,6 +264,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
         "max_total_thrust_along_wall_normal": thrust,
         "final_task_error": task_error, "final_joint_angles": h[6:6 + n].tolist(),
         "solve_time": per_mode, "fallbacks": sum(s["fallback"] != Fallback.NONE.value for s in steps),
+        "switches": switches(steps),
         "simulated_s": plant.t, "wall_clock_s": time.perf_counter() - wall_clock, "steps": steps,
     }
     if out is not None:
