@@ -85,8 +85,9 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--video", type=Path, help="write an MP4 rendered headlessly (EGL)")
     run.add_argument("--record", type=Path, help="write a Rerun recording (.rrd)")
     run.add_argument("--plots", type=Path, help="folder for telemetry figures (PNG)")
-    run.add_argument("--controller", default="switching", help="switching (default), mode1-only, braking or "
-                     "switching-search (with the certificate's line-search screen)")
+    run.add_argument("--controller", default="switching", help="switching (default), mode1-only, braking, or a "
+                     "variant of ours: switching-search, switching-warm, switching-warm-margin, "
+                     "switching-contact-margin (validation.closed_loop.run says what each changes)")
     for parser in (run,):
         parser.add_argument("--mismatch", default="default",
                             help='plant-vs-controller mismatch: "default", "none" or terms like added_mass*U(0.8,1.2)')
