@@ -31,10 +31,11 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    Optional (`warm_start`; off by default): start it instead from the fresh Mode I plan (when there
    is one) with a small initial barrier (mu_init 1e-4). On the 11 minimum-violation calls of a
    MuJoCo run of wall-headon (seed 1, 3 s) the default start failed on 3 (in 2.5, 2.6 and 9.6 s:
-   each of them a switch to Mode II) and this one on none: every one of the 11 has a zero minimum
-   violation. In closed loop the switches then come later and MuJoCo's runs end worse (the note on
-   issue 4, bench/results/switch_variants): under plant-model mismatch "F is empty on the model"
-   comes too late, and the default's failures stand in for a robustness margin.
+   each of them a switch to Mode II); this one, on the 10 that had a fresh plan, on none (every one
+   a zero minimum violation). Yet MuJoCo's closed loops end worse with it (11 of 18 hard runs
+   succeed against 13, bench/results/switch_variants): our reading is that under plant-model
+   mismatch "F is empty on the model" comes too late, and that the default's failures, which come
+   when the vehicle is close and the problem turns hard, stand in for a robustness margin.
 """
 
 from __future__ import annotations
