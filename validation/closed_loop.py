@@ -111,6 +111,7 @@ def build_plant(sc: Scenario, mismatch: str, seed: int) -> tuple[UVMSParams, Sce
 
 SEARCH_ITERATIONS = 20  # the certificate's line-search screen in "switching-search"
 CONTACT_MARGIN = 0.02  # m: Modes II and III's body clearance in "switching-contact-margin" (default 5 mm)
+CERTIFICATE_MARGIN = 0.04  # m: the clearance F's plans keep in "switching-warm-margin" (default: Mode I's 2 cm)
 # The controllers by name: how each changes the given SwitchingSettings ("braking" does not use them).
 # The variants of ours are the A/B cases of issue 4's note (bench/results/switch_variants).
 CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
@@ -119,7 +120,8 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "braking": lambda s: s,
     "switching-search": lambda s: replace(s, certificate_search=SEARCH_ITERATIONS),
     "switching-warm": lambda s: replace(s, certificate_warm_start=True),
-    "switching-warm-margin": lambda s: replace(s, certificate_warm_start=True, certificate_margin=0.04),
+    "switching-warm-margin": lambda s: replace(s, certificate_warm_start=True,
+                                                       certificate_margin=CERTIFICATE_MARGIN),
     "switching-contact-margin": lambda s: replace(s, mode2=replace(s.mode2, distance_margin=CONTACT_MARGIN),
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
