@@ -121,7 +121,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-search": lambda s: replace(s, certificate_search=SEARCH_ITERATIONS),
     "switching-warm": lambda s: replace(s, certificate_warm_start=True),
     "switching-warm-margin": lambda s: replace(s, certificate_warm_start=True,
-                                                       certificate_margin=CERTIFICATE_MARGIN),
+                                               certificate_margin=CERTIFICATE_MARGIN),
     "switching-contact-margin": lambda s: replace(s, mode2=replace(s.mode2, distance_margin=CONTACT_MARGIN),
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
