@@ -55,6 +55,14 @@ class Mode(Enum):
     III = "III"
 
 
+class SwitchReason(Enum):
+    """Why a step left Mode I for Mode II."""
+
+    F_EMPTY = "F empty: a positive minimum violation"
+    SOLVER_FAILURE = "F taken as empty: IPOPT failed on the minimum-violation problem"
+    DEPLOY_DEADLINE = "deploy deadline: the arm would reach the wall no sooner than the hull"
+
+
 class Fallback(Enum):
     NONE = "none"
     SHIFTED_PLAN = "shifted previous plan"
@@ -70,6 +78,7 @@ class SwitchingSettings:
     feasibility_tolerance: float = 1e-3  # m, summed clearance violation
     certificate_margin: float | None = None  # m, the clearance the certificate asks of F's plans (None: Mode I's)
     certificate_warm_start: bool = False  # minimum violation from Mode I's fresh plan (controller.feasibility)
+    deploy_deadline: bool = False  # also switch once Mode II's arm would reach the wall no sooner than the hull
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0)
@@ -98,6 +107,7 @@ class StepInfo:
     distances: np.ndarray  # (n_planes, n_bodies) m, at the measured state
     closing_speeds: np.ndarray  # (n_planes, n_bodies) m/s
     certificate: Certificate | None  # Mode I's feasibility test, when it ran
+    switch: SwitchReason | None = None  # set on the step that left Mode I for Mode II
 
 
 class SwitchingNMPC:
@@ -135,6 +145,7 @@ class SwitchingNMPC:
         self._last_u = np.zeros(model.n_inputs)
         self._reported_mode = Mode.I
         self._mode3_fell_back = False  # the last Mode III step could not use its solve
+        self._switch: SwitchReason | None = None  # why this step left Mode I
 
     def set_failed_thrusters(self, failed: Sequence[int]) -> None:
         """Thrusters known to be dead from now on (input bounds 0 in every mode and fallback)."""
@@ -203,6 +214,7 @@ class SwitchingNMPC:
                 self._mode3_fell_back or closing[self.contact, 0] > self.settings.separation_speed):
             self.mode, self._plan = Mode.I, None
         t0 = time.perf_counter()
+        self._switch = None
         if self.mode is Mode.I:
             out = self._step_mode1(h, t)
         elif self.mode is Mode.II:
@@ -214,7 +226,7 @@ class SwitchingNMPC:
         info = StepInfo(t=t, mode=self._reported_mode, status=status, fallback=fallback,
                         solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=iterations, dt=dt,
                         horizon=N, h_pred=hp, u_pred=up, contact_force=F, contact_plane=self.contact,
-                        distances=distances, closing_speeds=closing, certificate=cert)
+                        distances=distances, closing_speeds=closing, certificate=cert, switch=self._switch)
         return self._last_u, info
 
     def _step_mode1(self, h: np.ndarray, t: float):
@@ -239,6 +251,10 @@ class SwitchingNMPC:
         cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now) if self.settings.switching \
             else None
         if cert is not None and cert.verdict is Verdict.INFEASIBLE:
+            self._switch = SwitchReason.F_EMPTY if np.isfinite(cert.violation) else SwitchReason.SOLVER_FAILURE
+        elif cert is not None and self._deadline(h, cert):
+            self._switch = SwitchReason.DEPLOY_DEADLINE
+        if self._switch is not None:
             self.contact = self._closest_plane(cert.rollout)
             self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
             return self._step_mode2(h, cert)
@@ -259,6 +275,19 @@ class SwitchingNMPC:
                     previous.h, previous.u, None, cert)
         hs, us = self.feasibility.braking_rollout(h, self.current)
         return us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, None, cert
+
+    def _deadline(self, h: np.ndarray, cert: Certificate) -> bool:
+        """With `deploy_deadline`: whether the braking rollout reaches the margin (at its first node
+        below it, t_hit) no later than one control period after the time Mode II's deploy rollout
+        needs to put the tip on that plane (t_c): waiting another step would leave Mode II no time."""
+        if not self.settings.deploy_deadline or cert.rollout_clearance >= 0:
+            return False
+        s = self.settings.mode1
+        t_hit = s.dt * (1 + int(np.argmax(self.feasibility.clearances(cert.rollout[1:])
+                                          < self.feasibility.settings.distance_margin)))
+        _, us, dt = self.ocp2(self._closest_plane(cert.rollout)).deploy_guess(h, self.settings.mode2.horizon,
+                                                                             self.current)
+        return t_hit <= len(us) * dt + s.dt
 
     def _step_mode2(self, h: np.ndarray, cert: Certificate | None = None):
         self._reported_mode = Mode.II

@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from controller.switching import SwitchReason
 from uvms import load_params
 from validation.cli import main
 from validation.closed_loop import Outcome, run
@@ -76,6 +77,8 @@ def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     first = next(k for k, step in enumerate(summary["steps"]) if step["mode"] == "II")
     assert summary["steps"][first]["certificate"]["verdict"] == "infeasible"
     assert all(step["certificate"]["verdict"] == "feasible" for step in summary["steps"][:first])
+    failed = summary["steps"][first]["certificate"]["violation"] is None
+    assert summary["steps"][first]["switch"] == (SwitchReason.SOLVER_FAILURE if failed else SwitchReason.F_EMPTY).value
     entries = sum(a == "I" and b == "II" for a, b in zip(s["modes"], s["modes"][1:], strict=False))
     assert int(s["switches"].split()[0]) == entries
 

@@ -28,7 +28,7 @@ import numpy as np
 from controller.feasibility import Certificate
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy
-from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
+from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings, SwitchReason
 from uvms import load_params, load_scene
 from uvms.params import UVMSParams
 from uvms.scene import Current, Scene
@@ -122,6 +122,8 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-warm": lambda s: replace(s, certificate_warm_start=True),
     "switching-warm-margin": lambda s: replace(s, certificate_warm_start=True,
                                                certificate_margin=CERTIFICATE_MARGIN),
+    "switching-deadline": lambda s: replace(s, deploy_deadline=True),
+    "switching-warm-deadline": lambda s: replace(s, deploy_deadline=True, certificate_warm_start=True),
     "switching-contact-margin": lambda s: replace(s, mode2=replace(s.mode2, distance_margin=CONTACT_MARGIN),
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
@@ -137,11 +139,11 @@ def certificate_row(c: Certificate | None) -> dict | None:
 
 
 def switches(steps: list[dict]) -> str:
-    """"n (k by solver failure)": the steps whose certificate found F empty (each a switch from
-    Mode I to Mode II), and how many of those verdicts came from an IPOPT failure on the
-    minimum-violation problem rather than a positive minimum."""
-    empty = [s["certificate"] for s in steps if s["certificate"] and s["certificate"]["verdict"] == "infeasible"]
-    return f"{len(empty)} ({sum(c['violation'] is None for c in empty)} by solver failure)"
+    """"n (k by solver failure)": the switches from Mode I to Mode II, and how many of them came
+    from an IPOPT failure on the certificate's minimum-violation problem (controller.switching.
+    SwitchReason)."""
+    reasons = [s["switch"] for s in steps if s.get("switch")]
+    return f"{len(reasons)} ({reasons.count(SwitchReason.SOLVER_FAILURE.value)} by solver failure)"
 
 
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
@@ -230,7 +232,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
             steps.append({"t": t, "dt": dt, "mode": info.mode.value, "status": info.status.value,
                           "fallback": info.fallback.value, "solve_time": info.solve_time, "ocp_time": info.ocp_time,
                           "iterations": info.iterations, "horizon": info.horizon,
-                          "certificate": certificate_row(info.certificate)} if info else
+                          "certificate": certificate_row(info.certificate),
+                          "switch": info.switch.value if info.switch else None} if info else
                          {"t": t, "dt": dt, "mode": "braking", "status": "-", "fallback": Fallback.NONE.value,
                           "solve_time": 0.0, "ocp_time": 0.0, "iterations": 0, "horizon": 0, "certificate": None})
             while recorder is not None and next_frame <= plant.t + 1e-9:

@@ -15,9 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.feasibility import Verdict
 from controller.model import UVMSModel
-from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings
+from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings, SwitchReason
 from uvms import load_params, load_scene
 from validation.closed_loop import initial_state
 from validation.model_plant import ModelPlant
@@ -93,9 +92,8 @@ def summary_row(r: Run) -> str:
         ts = [i.solve_time for i in r.infos if i.mode is m]
         if ts:
             per_mode.append(f"{m.value}: {1e3 * np.median(ts):.0f}/{1e3 * np.percentile(ts, 95):.0f}")
-    empty = [i.certificate for i in r.infos
-             if i.certificate is not None and i.certificate.verdict is Verdict.INFEASIBLE]
-    switches = f"{len(empty)} ({sum(not np.isfinite(c.violation) for c in empty)})"
+    reasons = [i.switch for i in r.infos if i.switch is not None]
+    switches = f"{len(reasons)} ({reasons.count(SwitchReason.SOLVER_FAILURE)})"
     return (f"| {r.scenario.name} | {modes} | {r.hull_distance.min():.3f} | {r.tip_force_peak.max():.0f} | "
             f"{len(r.infos)} | {sum(fallbacks.values())} | {switches} | {', '.join(per_mode)} |")
 
