@@ -123,13 +123,9 @@ class FeasibilityTest:
         h0 = np.asarray(h0, float)
         return rollout(self.model, self.braking, h0, h0[6:6 + self.model.n_joints], s.dt, s.horizon, current=current)
 
-    def clearances(self, hs: np.ndarray) -> np.ndarray:
-        """Each state's smallest clearance [m] (states (K, ns)): every body and the tip, every plane."""
-        return np.array([float(np.asarray(self.problem._clearance(h)).min()) for h in hs])
-
     def min_clearance(self, hs: np.ndarray) -> float:
         """Smallest clearance [m] over the nodes hs[1:] (states (N+1, ns))."""
-        return float(self.clearances(hs[1:]).min())
+        return min(float(np.asarray(self.problem._clearance(h)).min()) for h in hs[1:])
 
     def plan_is_feasible(self, hs: np.ndarray, us: np.ndarray) -> bool:
         """Whether a rollout (states (N+1, ns) from the measured state, inputs (N, nu)) is a point of

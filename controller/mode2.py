@@ -109,6 +109,11 @@ class ModeIIOCP:
         self.reach = ReachPosture(model, plane)
         self.deploy = BrakingPolicy(model, JointHold(s.deploy_stiffness, s.deploy_damping))
 
+    def protected_clearance(self, h: np.ndarray) -> float:
+        """Smallest clearance [m] of what Mode II keeps off the planes (every body and the tip, except
+        the tip and the last link against the contact plane) at state h."""
+        return float(np.asarray(self._clearance(h)).min())
+
     def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
         self._lo_u, self._hi_u = np.asarray(lo, float), np.asarray(hi, float)

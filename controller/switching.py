@@ -277,17 +277,20 @@ class SwitchingNMPC:
         return us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, None, cert
 
     def _deadline(self, h: np.ndarray, cert: Certificate) -> bool:
-        """With `deploy_deadline`: whether the braking rollout reaches the margin (at its first node
-        below it, t_hit) no later than one control period after the time Mode II's deploy rollout
-        needs to put the tip on that plane (t_c): waiting another step would leave Mode II no time."""
+        """With `deploy_deadline`: whether the braking rollout brings something Mode II protects (every
+        body but the tip and the last link against the contact plane: ModeIIOCP.protected_clearance)
+        within the margin (first node t_hit) no later than one control period after the time Mode
+        II's deploy rollout needs to put the tip on that plane (t_c): waiting another step would
+        leave Mode II no time. The tip and the last link are left out so that an arm still on the
+        wall after Mode III does not count."""
         if not self.settings.deploy_deadline or cert.rollout_clearance >= 0:
             return False
-        s = self.settings.mode1
-        t_hit = s.dt * (1 + int(np.argmax(self.feasibility.clearances(cert.rollout[1:])
-                                          < self.feasibility.settings.distance_margin)))
-        _, us, dt = self.ocp2(self._closest_plane(cert.rollout)).deploy_guess(h, self.settings.mode2.horizon,
-                                                                             self.current)
-        return t_hit <= len(us) * dt + s.dt
+        s, ocp2 = self.settings.mode1, self.ocp2(self._closest_plane(cert.rollout))
+        close = [ocp2.protected_clearance(x) < self.feasibility.settings.distance_margin for x in cert.rollout[1:]]
+        if not any(close):
+            return False
+        _, us, dt = ocp2.deploy_guess(h, self.settings.mode2.horizon, self.current)
+        return s.dt * (1 + close.index(True)) <= len(us) * dt + s.dt
 
     def _step_mode2(self, h: np.ndarray, cert: Certificate | None = None):
         self._reported_mode = Mode.II
