@@ -87,7 +87,8 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--plots", type=Path, help="folder for telemetry figures (PNG)")
     run.add_argument("--controller", default="switching", help="switching (default), mode1-only, braking, or a "
                      "variant of ours: switching-search, switching-warm, switching-warm-margin, "
-                     "switching-contact-margin (validation.closed_loop.run says what each changes)")
+                     "switching-deadline, switching-contact-margin (validation.closed_loop.run says what each "
+                     "changes)")
     for parser in (run,):
         parser.add_argument("--mismatch", default="default",
                             help='plant-vs-controller mismatch: "default", "none" or terms like added_mass*U(0.8,1.2)')

@@ -123,7 +123,6 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-warm-margin": lambda s: replace(s, certificate_warm_start=True,
                                                certificate_margin=CERTIFICATE_MARGIN),
     "switching-deadline": lambda s: replace(s, deploy_deadline=True),
-    "switching-warm-deadline": lambda s: replace(s, deploy_deadline=True, certificate_warm_start=True),
     "switching-contact-margin": lambda s: replace(s, mode2=replace(s.mode2, distance_margin=CONTACT_MARGIN),
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
@@ -160,7 +159,9 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     "switching-search" (the certificate's optional line-search SQP screen, controller.feasibility),
     "switching-warm" (the minimum-violation problem started from Mode I's fresh plan),
     "switching-warm-margin" (that, and a certificate asking 4 cm of clearance instead of Mode I's 2
-    cm) or "switching-contact-margin" (Modes II and III keep bodies 2 cm off instead of 5 mm)."""
+    cm), "switching-deadline" (also switch when Mode II would otherwise have no time to deploy the
+    arm: controller.switching.SwitchingSettings.deploy_deadline) or "switching-contact-margin"
+    (Modes II and III keep bodies 2 cm off instead of 5 mm)."""
     if controller not in CONTROLLERS:
         raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
     settings = CONTROLLERS[controller](settings or SwitchingSettings())
