@@ -68,7 +68,7 @@ class SwitchReason(Enum):
 
     F_EMPTY = "F empty: a positive minimum violation"
     SOLVER_FAILURE = "F taken as empty: IPOPT failed on the minimum-violation problem"
-    DEPLOY_DEADLINE = "deploy deadline: the arm would reach the wall no sooner than the hull"
+    DEPLOY_DEADLINE = "deploy deadline: waiting would leave Mode II no time to put the tip on the wall"
 
 
 class Fallback(Enum):
