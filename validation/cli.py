@@ -65,6 +65,7 @@ def _print_summary(s: dict) -> None:
             ("mismatch (seed)", f"{s['mismatch']['spec'] or 'none'} ({s['mismatch']['seed']}): "
              + ", ".join(f"{k} {v:.3g}" for k, v in s["mismatch"]["values"].items())),
             ("fallbacks", str(s["fallbacks"])),
+            ("switches to Mode II", s["switches"]),
             ("step time median / p95 [ms]", ", ".join(f"{m}: {1e3 * v['median_s']:.0f} / {1e3 * v['p95_s']:.0f}"
                                                       for m, v in s["solve_time"].items())),
             ("simulated / wall clock [s]", f"{s['simulated_s']:.1f} / {s['wall_clock_s']:.1f}")]
