@@ -19,9 +19,9 @@ Optional (`deploy_deadline`, off by default; not in the paper): also leave Mode 
 found empty, when the certificate's braking rollout brings a body that Mode II protects within the
 margin no later than one control period after the time Mode II's deploy rollout needs to put the
 tip on that plane. In practice the certificate's "F empty" is mostly an IPOPT failure (StepInfo.
-switch and the note on issue 4); this is a switch rule that means what it says. On the 18 hardest
-MuJoCo runs it did as well as the default (14 against 13 successes, bench/results/deploy_deadline),
-which is why it stays off.
+switch and the note on issue 4); this is a switch rule that means what it says. On the three
+hardest MuJoCo families it did as well as the default, no better (26 against 25 successes of 36,
+bench/results/deadline_12seeds), which is why it stays off.
 
 Before each solve the previous plan is shifted by one interval and its state trajectory
 recomputed from the measured state with the model's RK4 under the plan's inputs (and dt, and
