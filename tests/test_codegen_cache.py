@@ -10,9 +10,9 @@ from controller import codegen
 
 
 def test_cache_hits_only_the_same_definitions(tmp_path, monkeypatch) -> None:
-    """f(x) = k sin(x) with k = 2, then 3, then 2 again, into an empty cache. Oracle: the closed form,
-    of its derivative, evaluated by the loaded library at x = 0.7. The derivation (and code generation) runs for each
-    new definition and not for a repeated one."""
+    """f(x) = k sin(x) with k = 2, then 3, then 2 again, into an empty cache. Oracle: the closed form
+    of its derivative, k cos(x), against the loaded library at x = 0.7. The derivation (and code
+    generation) runs for each new definition and not for a repeated one."""
     monkeypatch.setattr(codegen, "CACHE", tmp_path)
     x = ca.SX.sym("x")
     derived = []

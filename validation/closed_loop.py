@@ -18,7 +18,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless
 
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, replace
 from enum import Enum
 from pathlib import Path
@@ -137,12 +137,12 @@ def certificate_row(c: Certificate | None) -> dict | None:
             "violation": c.violation if np.isfinite(c.violation) else None, "seconds": c.solve_time}
 
 
-def switches(steps: list[dict]) -> str:
-    """"n (k by solver failure)": the switches from Mode I to Mode II, and how many of them came
-    from an IPOPT failure on the certificate's minimum-violation problem (controller.switching.
-    SwitchReason)."""
-    reasons = [s["switch"] for s in steps if s.get("switch")]
-    return f"{len(reasons)} ({reasons.count(SwitchReason.SOLVER_FAILURE.value)} by solver failure)"
+def switches(reasons: Sequence[SwitchReason | None]) -> str:
+    """"n (k by solver failure)" from the steps' switch reasons (None: no switch): the switches from
+    Mode I to Mode II, and how many of them came from an IPOPT failure on the certificate's
+    minimum-violation problem."""
+    made = [r for r in reasons if r is not None]
+    return f"{len(made)} ({made.count(SwitchReason.SOLVER_FAILURE)} by solver failure)"
 
 
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
@@ -236,7 +236,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
                           "certificate": certificate_row(info.certificate),
                           "switch": info.switch.value if info.switch else None} if info else
                          {"t": t, "dt": dt, "mode": "braking", "status": "-", "fallback": Fallback.NONE.value,
-                          "solve_time": 0.0, "ocp_time": 0.0, "iterations": 0, "horizon": 0, "certificate": None})
+                          "solve_time": 0.0, "ocp_time": 0.0, "iterations": 0, "horizon": 0, "certificate": None,
+                          "switch": None})
             while recorder is not None and next_frame <= plant.t + 1e-9:
                 recorder.capture()
                 next_frame += 1.0 / VIDEO_FPS
@@ -270,7 +271,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
         "max_total_thrust_along_wall_normal": thrust,
         "final_task_error": task_error, "final_joint_angles": h[6:6 + n].tolist(),
         "solve_time": per_mode, "fallbacks": sum(s["fallback"] != Fallback.NONE.value for s in steps),
-        "switches": switches(steps),
+        "switches": switches([SwitchReason(s["switch"]) if s["switch"] else None for s in steps]),
         "simulated_s": plant.t, "wall_clock_s": time.perf_counter() - wall_clock, "steps": steps,
     }
     if out is not None:

@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from controller.model import UVMSModel
-from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings, SwitchReason
+from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings
 from uvms import load_params, load_scene
-from validation.closed_loop import initial_state
+from validation.closed_loop import initial_state, switches
 from validation.model_plant import ModelPlant
 from validation.scenarios import Scenario
 
@@ -92,15 +92,14 @@ def summary_row(r: Run) -> str:
         ts = [i.solve_time for i in r.infos if i.mode is m]
         if ts:
             per_mode.append(f"{m.value}: {1e3 * np.median(ts):.0f}/{1e3 * np.percentile(ts, 95):.0f}")
-    reasons = [i.switch for i in r.infos if i.switch is not None]
-    switches = f"{len(reasons)} ({reasons.count(SwitchReason.SOLVER_FAILURE)})"
     return (f"| {r.scenario.name} | {modes} | {r.hull_distance.min():.3f} | {r.tip_force_peak.max():.0f} | "
-            f"{len(r.infos)} | {sum(fallbacks.values())} | {switches} | {', '.join(per_mode)} |")
+            f"{len(r.infos)} | {sum(fallbacks.values())} | {switches([i.switch for i in r.infos])} | "
+            f"{', '.join(per_mode)} |")
 
 
 def main(names: list[str]) -> None:
     rows = ["| scenario | modes | min hull distance [m] | peak tip force [N] | steps | fallbacks | "
-            "switches to Mode II (by IPOPT failure) | step time median/p95 [ms] per mode |",
+            "switches to Mode II | step time median/p95 [ms] per mode |",
             "|---|---|---|---|---|---|---|---|"]
     for name in names or list(SCENARIOS):
         r = run(SCENARIOS[name])
