@@ -50,6 +50,7 @@ class ModeIISettings:
     input_weight: float = 1e-7  # 1/N^2 regularization
     rate_weight: float = 1e-2  # s^2/rad^2, on the hull's angular and the joints' rates (no thrashing)
     distance_margin: float = 0.005  # m, bodies' clearance (the paper: >= 0)
+    terminal_margin: float | None = None  # m, the clearance against the contact plane at contact (None: as above)
     deploy_stiffness: float = 10.0  # N m/rad, the initial guess's arm PD
     deploy_damping: float = 1.5  # N m s/rad
     max_iter: int = 300
@@ -85,6 +86,8 @@ class ModeIIOCP:
         vc = P[ns + 1:]
         self._clearance = ca.Function("clear2", [h], [clearances(model, h, self.planes, contact)])
         self.n_clear = self._clearance.size1_out(0)
+        before = sum(1 + model.n_joints + (model.n_joints > 0) for _ in self.planes[:contact])
+        self._contact_rows = np.arange(before, before + model.n_joints + (model.n_joints == 0))
         st = ca.vertcat(h, dt, u, a, h1, dt1)
         cons = ca.vertcat(midpoint_residual(model, h, u, a, h1, dt, vc), dt1 - dt, self._clearance(h1))
         rates = h1[nv + 3:]  # hull angular and joint rates
@@ -187,6 +190,8 @@ class ModeIIOCP:
         for k in range(N):
             i = ns + k * nc + ns + nv + 1
             lbg[i:i + self.n_clear], ubg[i:i + self.n_clear] = self.settings.distance_margin, np.inf
+        if self.settings.terminal_margin is not None:  # the last node: every protected body off the contact plane
+            lbg[i + self._contact_rows] = self.settings.terminal_margin
         w0 = np.clip(self.pack(hs, us, dt0), lbw, ubw)
         P = np.concatenate([h0, [dt0], np.zeros(3) if current is None else current])
         t0 = time.perf_counter()

@@ -54,6 +54,7 @@ from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_hor
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy, JointHold, simulate
+from controller.transcription import tip_gap
 from uvms.scene import Plane
 
 
@@ -90,6 +91,7 @@ class SwitchingSettings:
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0)
+    contact_tolerance: float | None = None  # m: enter Mode III only with the tip this close to the plane (None: paper)
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     prebuild: bool = True  # build Modes II and III for every plane at construction (else at first use)
@@ -221,6 +223,11 @@ class SwitchingNMPC:
         if self.mode is Mode.III and self._reported_mode is Mode.III and (
                 self._mode3_fell_back or closing[self.contact, 0] > self.settings.separation_speed):
             self.mode, self._plan = Mode.I, None
+        if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h):
+            if closing[self.contact, 0] > self.settings.separation_speed:  # no contact needed: the certificate decides
+                self.mode, self._plan = Mode.I, None
+            else:  # Mode II afresh: Algorithm 1's entry from the measured state
+                self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         t0 = time.perf_counter()
         self._switch = None
         if self.mode is Mode.I:
@@ -283,6 +290,13 @@ class SwitchingNMPC:
                     previous.h, previous.u, None, cert)
         hs, us = self.feasibility.braking_rollout(h, self.current)
         return us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, None, cert
+
+    def _short_of_contact(self, h: np.ndarray) -> bool:
+        """With `contact_tolerance`: whether the tip is further than that from the contact plane
+        after Mode II's last (N_p = 1) step, so that Mode III, which holds it on the plane from its
+        first interval on, would have to drag it there in one interval."""
+        tol = self.settings.contact_tolerance
+        return tol is not None and float(tip_gap(self.model, h, self.planes[self.contact])) > tol
 
     def _deadline(self, h: np.ndarray, cert: Certificate) -> bool:
         """With `deploy_deadline`: whether the braking rollout brings something Mode II protects (every

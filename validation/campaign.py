@@ -42,14 +42,15 @@ def run_job(job: Job) -> dict:
 
 
 def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers: int, out: Path,
-             mismatch: str = "", seeds: int = 1) -> list[dict]:
-    """Run every scenario with every controller and every seed of the mismatch (the same draws for
-    every controller); write out/results.csv and out/results.md."""
+             mismatch: str = "", seeds: int = 1, first_seed: int = 0) -> list[dict]:
+    """Run every scenario with every controller and every seed first_seed..first_seed+seeds-1 of the
+    mismatch (the same draws for every controller); write out/results.csv and out/results.md."""
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise ValueError(f"output path {out}: {e.strerror}; allowed: a writable folder") from None
-    jobs = [Job(s, c, mismatch, seed) for s in scenarios for seed in range(seeds) for c in controllers]
+    jobs = [Job(s, c, mismatch, seed) for s in scenarios for seed in range(first_seed, first_seed + seeds)
+            for c in controllers]
     rows = []
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=ctx) as pool:

@@ -5,7 +5,8 @@
                [--video FILE] [--record FILE] [--plots DIR]
                                                    run one in closed loop against MuJoCo
   uvms view FILE.rrd                               open a recording in the Rerun viewer
-  uvms campaign [--scenarios A,B] [--controllers C,D] [--mismatch M] [--seeds N] [--workers K] [--out DIR]
+  uvms campaign [--scenarios A,B] [--controllers C,D] [--mismatch M] [--seeds N] [--first-seed K]
+               [--workers K] [--out DIR]
                                                    run many, with a progress bar and a results table
 """
 
@@ -103,7 +104,8 @@ def main(argv: list[str] | None = None) -> int:
     camp.add_argument("--out", type=Path, default=Path("out/campaign"), help="folder for results.csv and .md")
     camp.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every scenario")
     camp.add_argument("--mismatch", default="default", help='as for run: "default", "none" or terms')
-    camp.add_argument("--seeds", type=int, default=1, help="mismatch draws per scenario (seeds 0..N-1)")
+    camp.add_argument("--seeds", type=int, default=1, help="mismatch draws per scenario (seeds K..K+N-1)")
+    camp.add_argument("--first-seed", type=int, default=0, metavar="K", help="the first seed (default 0)")
     args = ap.parse_args(argv)
     try:
         if args.command == "scenarios":
@@ -122,7 +124,8 @@ def main(argv: list[str] | None = None) -> int:
                     raise ValueError(f"unknown controller {c!r}; allowed: {', '.join(CONTROLLERS)}")
             overrides = _overrides(args.set)
             scenarios = [get(n).with_overrides(overrides) for n in args.scenarios.split(",") if n]
-            rows = campaign(scenarios, controllers, args.workers, args.out, _mismatch(args.mismatch), args.seeds)
+            rows = campaign(scenarios, controllers, args.workers, args.out, _mismatch(args.mismatch), args.seeds,
+                            args.first_seed)
             print(Path(args.out / "results.md").read_text())
             return 0 if all(r.get("verdict") != "error" for r in rows) else 1
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
