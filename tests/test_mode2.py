@@ -4,6 +4,8 @@ own fine RK4 rollout of the plan's inputs."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -63,6 +65,47 @@ def test_plan_touches_the_wall_at_its_end_and_the_model_agrees(params, scene) ->
     assert abs(float(tip_gap(model, h, wall))) < 0.005
     assert np.linalg.norm(h[:3] - sol.h[-1, :3]) < 0.005
 
+
+
+@pytest.mark.slow
+def test_terminal_margin_holds_every_other_body_off_the_wall_at_contact(params, scene) -> None:
+    """Mode II's entry state of a MuJoCo run (wall-oblique, seed 6, t = 3.0 s: horizontal thrusters
+    dead, 0.25 m/s current, the tip 0.2 s from the wall; tests/data/wall_oblique_mode2_entry.npz),
+    with 0.05 s intervals (dt in [0.025, 0.05] s). With the default 5 mm margin the plan ends with a
+    link within 2.5 cm of the wall (in MuJoCo the shoulder and elbow then touched it). With
+    ModeIISettings(terminal_margin=0.04) the plan still ends with the tip on the wall (1e-6 m) and
+    every body the contact plane's clearances cover (the hull, every link but the last) at least
+    4 cm off it, measured by the model's superellipsoid distances (not the OCP's constraint
+    function). Oracle: the model's RK4 at 100 substeps per interval under the plan's inputs ends with
+    those bodies at least 3.5 cm off and the tip within 1 cm of the wall (measured 4.3 cm and 5 mm:
+    the midpoint rule's error on an arm swinging at up to 9 rad/s). With the default 0.1 s intervals
+    the same plan's tip ends 4 cm short of the wall under RK4, which is why the intervals are 0.05 s
+    here (the note on issue 4)."""
+    model = UVMSModel(params, scene.water)
+    rec = np.load(Path(__file__).parent / "data" / "wall_oblique_mode2_entry.npz")
+    h0, current = rec["h"], rec["current"]
+    wall = scene.planes[0]
+    fine = ModeIISettings(dt_nominal=0.05, dt_bounds=(0.025, 0.05))
+
+    def plan(settings: ModeIISettings) -> ModeIISolution:
+        ocp = ModeIIOCP(model, scene.planes, 0, settings)
+        ocp.limit_inputs(rec["lo"], rec["hi"])
+        return ocp.solve(h0, ocp.deploy_guess(h0, settings.horizon, current), current)
+
+    def others(h: np.ndarray) -> float:
+        return float(np.min(np.asarray(model.distances(h, wall.normal, wall.offset)).ravel()[:-1]))
+
+    assert others(plan(fine).h[-1]) < 0.025
+    sol = plan(replace(fine, terminal_margin=0.04))
+    assert sol.status is SolverStatus.SUCCESS
+    assert abs(float(tip_gap(model, sol.h[-1], wall))) < 1e-6
+    assert others(sol.h[-1]) > 0.04 - 1e-6
+    h = h0.copy()
+    for u in sol.u:
+        for _ in range(100):
+            h = model.step(h, u, sol.dt / 100, vc=current)
+    assert others(h) > 0.035
+    assert abs(float(tip_gap(model, h, wall))) < 0.01
 
 
 def test_reach_posture_finds_the_furthest_reach(params, scene) -> None:

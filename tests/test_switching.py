@@ -79,3 +79,33 @@ def test_thruster_failure_approach_switches_through_all_modes(params) -> None:
         if i.mode is Mode.III and i.contact_force is not None:
             F = i.contact_force
             assert np.all(np.linalg.norm(F[:, 1:], axis=1) <= mu * F[:, 0] + 1e-6)
+
+
+@pytest.mark.slow
+def test_contact_check_holds_mode_three_until_the_tip_is_on_the_plane(params, scene) -> None:
+    """SwitchingSettings(contact_tolerance=0.01), the controller just past Mode II's N_p = 1 step
+    (Algorithm 1 hands over to Mode III), the hull 0.15 m from the wall and approaching at 0.2 m/s
+    with the arm stowed: the tip, by the model's forward kinematics, is far more than 1 cm off the
+    wall, so the step is Mode II's entry again (a fresh deploy plan), not Mode III. With the tip put
+    on the wall by Wall_InvKin (gap below 1e-6 m) the same step is Mode III; without the setting (the
+    paper) the far tip also goes to Mode III."""
+    from controller.transcription import tip_gap
+
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, Scenario("approach", "", gap=0.15, speed=0.2))
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+
+    def after_mode_two(settings: SwitchingSettings) -> SwitchingNMPC:
+        ctl = SwitchingNMPC(model, scene.planes, ref, settings)
+        ctl.mode, ctl._reported_mode, ctl.contact = Mode.III, Mode.II, wall  # Algorithm 1's hand-over pending
+        return ctl
+
+    checked = SwitchingSettings(contact_tolerance=0.01)
+    assert float(tip_gap(model, h, scene.planes[wall])) > 0.05
+    assert after_mode_two(checked).step(h, 0.0)[1].mode is Mode.II
+    assert after_mode_two(SwitchingSettings()).step(h, 0.0)[1].mode is Mode.III
+    ctl = after_mode_two(checked)
+    on = h.copy()
+    on[6:6 + params.n_joints] = ctl.ocp3(wall).onto_plane(h)
+    assert abs(float(tip_gap(model, on, scene.planes[wall]))) < 1e-6
+    assert ctl.step(on, 0.0)[1].mode is Mode.III

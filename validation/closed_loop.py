@@ -112,6 +112,7 @@ def build_plant(sc: Scenario, mismatch: str, seed: int) -> tuple[UVMSParams, Sce
 SEARCH_ITERATIONS = 20  # the certificate's line-search screen in "switching-search"
 CONTACT_MARGIN = 0.02  # m: Modes II and III's body clearance in "switching-contact-margin" (default 5 mm)
 CONTACT_TOLERANCE = 0.01  # m: "switching-contact-check" enters Mode III with the tip this close to the wall
+FINE_MODE2 = {"dt_nominal": 0.05, "dt_bounds": (0.025, 0.05)}  # s: Mode II's intervals in "switching-fine2"
 STRUT_MARGIN = 0.04  # m: Mode II's clearance against the contact plane at contact in "switching-strut"
 CERTIFICATE_MARGIN = 0.04  # m: the clearance F's plans keep in "switching-warm-margin" (default: Mode I's 2 cm)
 # The controllers by name: how each changes the given SwitchingSettings ("braking" does not use them).
@@ -130,6 +131,9 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-strut": lambda s: replace(s, mode2=replace(s.mode2, terminal_margin=STRUT_MARGIN)),
     "switching-strut-check": lambda s: replace(s, contact_tolerance=CONTACT_TOLERANCE,
                                                mode2=replace(s.mode2, terminal_margin=STRUT_MARGIN)),
+    "switching-fine2": lambda s: replace(s, mode2=replace(s.mode2, **FINE_MODE2)),
+    "switching-fine2-strut-check": lambda s: replace(s, contact_tolerance=CONTACT_TOLERANCE, mode2=replace(
+        s.mode2, terminal_margin=STRUT_MARGIN, **FINE_MODE2)),
     "switching-contact-margin": lambda s: replace(s, mode2=replace(s.mode2, distance_margin=CONTACT_MARGIN),
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
