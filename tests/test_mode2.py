@@ -71,7 +71,7 @@ def test_plan_touches_the_wall_at_its_end_and_the_model_agrees(params, scene) ->
 def test_terminal_margin_holds_every_other_body_off_the_wall_at_contact(params, scene) -> None:
     """Mode II's entry state of a MuJoCo run (wall-oblique, seed 6, t = 3.0 s: horizontal thrusters
     dead, 0.25 m/s current, the tip 0.2 s from the wall; tests/data/wall_oblique_mode2_entry.npz),
-    with 0.05 s intervals (dt in [0.025, 0.05] s). With the default 5 mm margin the plan ends with a
+    with 0.05 s intervals (dt in [0.025, 0.05] s, the defaults). With the 5 mm margin alone the plan ends with a
     link within 2.5 cm of the wall (in MuJoCo the shoulder and elbow then touched it). With
     ModeIISettings(terminal_margin=0.04) the plan still ends with the tip on the wall (1e-6 m) and
     every body the contact plane's clearances cover (the hull, every link but the last) at least
@@ -85,7 +85,7 @@ def test_terminal_margin_holds_every_other_body_off_the_wall_at_contact(params, 
     rec = np.load(Path(__file__).parent / "data" / "wall_oblique_mode2_entry.npz")
     h0, current = rec["h"], rec["current"]
     wall = scene.planes[0]
-    fine = ModeIISettings(dt_nominal=0.05, dt_bounds=(0.025, 0.05))
+    fine = ModeIISettings(dt_nominal=0.05, dt_bounds=(0.025, 0.05), terminal_margin=None)
 
     def plan(settings: ModeIISettings) -> ModeIISolution:
         ocp = ModeIIOCP(model, scene.planes, 0, settings)

@@ -111,30 +111,37 @@ def build_plant(sc: Scenario, mismatch: str, seed: int) -> tuple[UVMSParams, Sce
 
 SEARCH_ITERATIONS = 20  # the certificate's line-search screen in "switching-search"
 CONTACT_MARGIN = 0.02  # m: Modes II and III's body clearance in "switching-contact-margin" (default 5 mm)
-CONTACT_TOLERANCE = 0.01  # m: "switching-contact-check" enters Mode III with the tip this close to the wall
-FINE_MODE2 = {"dt_nominal": 0.05, "dt_bounds": (0.025, 0.05)}  # s: Mode II's intervals in "switching-fine2"
-STRUT_MARGIN = 0.04  # m: Mode II's clearance against the contact plane at contact in "switching-strut"
 CERTIFICATE_MARGIN = 0.04  # m: the clearance F's plans keep in "switching-warm-margin" (default: Mode I's 2 cm)
+
+
+def paper(s: SwitchingSettings) -> SwitchingSettings:
+    """Mode II and its hand-over to Mode III as the paper has them: 0.1 s intervals (dt in [0.05,
+    0.1] s), bodies 5 mm off the plane at contact as before it, and Mode III entered after the N_p =
+    1 step wherever the tip is."""
+    return replace(s, contact_tolerance=None, mode2=replace(s.mode2, dt_nominal=0.1, dt_bounds=(0.05, 0.1),
+                                                            terminal_margin=None))
+
+
 # The controllers by name: how each changes the given SwitchingSettings ("braking" does not use them).
-# The variants of ours are the A/B cases of issue 4's note (bench/results/switch_variants).
+# The variants of ours are the A/B cases of issue 4's note; all but "switching" build on the paper's
+# Mode II hand-over (`paper`), as when they were measured (bench/results/switch_variants, handover_*).
 CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching": lambda s: s,
     "mode1-only": lambda s: replace(s, switching=False),
     "braking": lambda s: s,
-    "switching-search": lambda s: replace(s, certificate_search=SEARCH_ITERATIONS),
-    "switching-warm": lambda s: replace(s, certificate_warm_start=True),
-    "switching-warm-margin": lambda s: replace(s, certificate_warm_start=True,
+    "switching-paper": paper,
+    "switching-paper-fine2": lambda s: replace(paper(s), mode2=replace(s.mode2, terminal_margin=None)),
+    "switching-paper-strut-check": lambda s: replace(s, mode2=replace(s.mode2, dt_nominal=0.1,
+                                                                      dt_bounds=(0.05, 0.1))),
+    "switching-search": lambda s: replace(paper(s), certificate_search=SEARCH_ITERATIONS),
+    "switching-warm": lambda s: replace(paper(s), certificate_warm_start=True),
+    "switching-warm-margin": lambda s: replace(paper(s), certificate_warm_start=True,
                                                certificate_margin=CERTIFICATE_MARGIN),
-    "switching-deadline": lambda s: replace(s, deploy_deadline=True),
-    "switching-search-deadline": lambda s: replace(s, certificate_search=SEARCH_ITERATIONS, deploy_deadline=True),
-    "switching-contact-check": lambda s: replace(s, contact_tolerance=CONTACT_TOLERANCE),
-    "switching-strut": lambda s: replace(s, mode2=replace(s.mode2, terminal_margin=STRUT_MARGIN)),
-    "switching-strut-check": lambda s: replace(s, contact_tolerance=CONTACT_TOLERANCE,
-                                               mode2=replace(s.mode2, terminal_margin=STRUT_MARGIN)),
-    "switching-fine2": lambda s: replace(s, mode2=replace(s.mode2, **FINE_MODE2)),
-    "switching-fine2-strut-check": lambda s: replace(s, contact_tolerance=CONTACT_TOLERANCE, mode2=replace(
-        s.mode2, terminal_margin=STRUT_MARGIN, **FINE_MODE2)),
-    "switching-contact-margin": lambda s: replace(s, mode2=replace(s.mode2, distance_margin=CONTACT_MARGIN),
+    "switching-deadline": lambda s: replace(paper(s), deploy_deadline=True),
+    "switching-search-deadline": lambda s: replace(paper(s), certificate_search=SEARCH_ITERATIONS,
+                                                   deploy_deadline=True),
+    "switching-contact-margin": lambda s: replace(paper(s), mode2=replace(paper(s).mode2,
+                                                                          distance_margin=CONTACT_MARGIN),
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
 
