@@ -134,6 +134,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-paper-strut-check": lambda s: replace(s, mode2=replace(s.mode2, dt_nominal=0.1,
                                                                       dt_bounds=(0.05, 0.1))),
     "switching-search": lambda s: replace(paper(s), certificate_search=SEARCH_ITERATIONS),
+    "switching-searching": lambda s: replace(s, certificate_search=SEARCH_ITERATIONS),  # on today's hand-over
     "switching-warm": lambda s: replace(paper(s), certificate_warm_start=True),
     "switching-warm-margin": lambda s: replace(paper(s), certificate_warm_start=True,
                                                certificate_margin=CERTIFICATE_MARGIN),
