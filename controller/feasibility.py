@@ -33,9 +33,10 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    MuJoCo run of wall-headon (seed 1, 3 s) the default start failed on 3 (in 2.5, 2.6 and 9.6 s:
    each of them a switch to Mode II); this one, on the 10 that had a fresh plan, on none (every one
    a zero minimum violation). Yet MuJoCo's closed loops end worse with it (11 of 18 hard runs
-   succeed against 13, bench/results/switch_variants): our reading is that under plant-model
-   mismatch "F is empty on the model" comes too late, and that the default's failures, which come
-   when the vehicle is close and the problem turns hard, stand in for a robustness margin.
+   succeed against 13 with the paper's Mode II hand-over, bench/results/switch_variants): our
+   reading is that under plant-model mismatch "F is empty on the model" comes too late, and that
+   the default's failures, which come when the vehicle is close and the problem turns hard, stand
+   in for a robustness margin.
 """
 
 from __future__ import annotations

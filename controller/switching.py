@@ -25,7 +25,7 @@ margin no later than one control period after the time Mode II's deploy rollout 
 tip on that plane. In practice the certificate's "F empty" is mostly an IPOPT failure (StepInfo.
 switch and the note on issue 4); this is a switch rule that means what it says. On the three
 hardest MuJoCo families it did as well as the default, no better (26 against 25 successes of 36,
-bench/results/deadline_12seeds), which is why it stays off.
+bench/results/deadline_12seeds, both with the paper's Mode II hand-over), which is why it stays off.
 
 Before each solve the previous plan is shifted by one interval and its state trajectory
 recomputed from the measured state with the model's RK4 under the plan's inputs (and dt, and
