@@ -48,7 +48,15 @@ import numpy as np
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
-from controller.transcription import SolverStatus, clearances, ipopt_status, midpoint_residual, smooth_norm, tip_gap
+from controller.transcription import (
+    SolverStatus,
+    clearances,
+    contact_rows,
+    ipopt_status,
+    midpoint_residual,
+    smooth_norm,
+    tip_gap,
+)
 from uvms.scene import Plane
 
 
@@ -101,8 +109,7 @@ class ModeIIOCP:
         vc = P[ns + 1:]
         self._clearance = ca.Function("clear2", [h], [clearances(model, h, self.planes, contact)])
         self.n_clear = self._clearance.size1_out(0)
-        before = sum(1 + model.n_joints + (model.n_joints > 0) for _ in self.planes[:contact])
-        self._contact_rows = np.arange(before, before + model.n_joints + (model.n_joints == 0))
+        self._contact_rows = contact_rows(model, self.planes, contact)
         st = ca.vertcat(h, dt, u, a, h1, dt1)
         cons = ca.vertcat(midpoint_residual(model, h, u, a, h1, dt, vc), dt1 - dt, self._clearance(h1))
         rates = h1[nv + 3:]  # hull angular and joint rates

@@ -95,6 +95,13 @@ def clearances(model: UVMSModel, h: ca.SX, planes: Sequence[Plane], contact: int
     return ca.vertcat(*out) if out else ca.SX.zeros(0)
 
 
+def contact_rows(model: UVMSModel, planes: Sequence[Plane], contact: int) -> np.ndarray:
+    """Indices, within `clearances(model, h, planes, contact)`, of the rows against the contact plane
+    (every body but the last link; the hull alone without an arm)."""
+    per_plane = 1 + model.n_joints + (model.n_joints > 0)  # bodies, and the tip with an arm
+    return np.arange(contact * per_plane, contact * per_plane + max(model.n_joints, 1))
+
+
 def tip_gap(model: UVMSModel, h: ca.SX, plane: Plane) -> ca.SX:
     """Distance [m] from the end-effector tip's sphere to the plane (paper eq. EE_Wall_Dist_Constraint
     minus the tip radius): zero in contact."""
