@@ -20,7 +20,8 @@ dt = 0.1 s, default vehicle (4-joint arm). Variants in one run:
     previous solution) with the IPOPT options of ours (warm start, adaptive barrier; with the
     monotone barrier it failed 34 of 60 solves at the 100-iteration cap, 5.0 s median).
 Modes II and III: every step of the thrusters-dead approach of validation.kane_closed_loop (the
-OCP solve alone, and the whole step with certificate, guesses and re-simulation).
+OCP solve alone, and the whole step with certificate, guesses and re-simulation), with the default
+Mode II (0.05 s intervals) and with the paper's (0.1 s, the issue's configuration).
 Code generation: the first build of Mode I with an empty cache (a subprocess with its own
 UVMS_CODEGEN_CACHE) against a second build that finds the compiled code on disk.
 """
@@ -42,9 +43,10 @@ import numpy as np
 from controller.mode1 import ModeIOCP, ModeISettings, Solver, _default_state_weights
 from controller.model import UVMSModel
 from controller.sqp import SQPSettings
-from controller.switching import Mode
+from controller.switching import Mode, SwitchingSettings
 from controller.transcription import clearances
 from uvms import load_params, load_scene
+from validation.closed_loop import paper
 from validation.kane_closed_loop import SCENARIOS, run
 
 OUT = Path(__file__).parent / "results"
@@ -159,16 +161,17 @@ def do_mpc_row(model, planes, h0, ref) -> dict:
     return stats(*closed_loop(solve, model, h0.copy(), s), build)
 
 
-def modes_two_three() -> dict:
-    r = run(SCENARIOS["thrusters-dead"])
+def modes_two_three(settings: SwitchingSettings | None = None, label: str = "") -> dict:
+    r = run(SCENARIOS["thrusters-dead"], settings)
     rows = {}
     for mode in Mode:
         infos = [i for i in r.infos if i.mode is mode]
         if infos:
-            rows[f"Mode {mode.value}: OCP solve"] = stats([i.ocp_time for i in infos], [i.iterations for i in infos],
-                                                         sum(not i.status.usable for i in infos), 0.0)
-            rows[f"Mode {mode.value}: whole step"] = stats([i.solve_time for i in infos],
-                                                          [i.iterations for i in infos], 0, 0.0)
+            rows[f"Mode {mode.value}{label}: OCP solve"] = stats([i.ocp_time for i in infos],
+                                                                 [i.iterations for i in infos],
+                                                                 sum(not i.status.usable for i in infos), 0.0)
+            rows[f"Mode {mode.value}{label}: whole step"] = stats([i.solve_time for i in infos],
+                                                                  [i.iterations for i in infos], 0, 0.0)
     return rows
 
 
@@ -200,7 +203,7 @@ def main() -> None:
     h0, ref = approach(params)
     mode1 = ours_and_cold(model, scene.planes, h0, ref)
     mode1["(b) do-mpc 5.1.2, collocation, warm start"] = do_mpc_row(model, scene.planes, h0, ref)
-    modes = modes_two_three()
+    modes = modes_two_three() | modes_two_three(paper(SwitchingSettings()), " (the paper's Mode II, 0.1 s)")
     builds = build_times()
     OUT.mkdir(exist_ok=True)
     (OUT / "nmpc_modes.json").write_text(json.dumps({"machine": platform.machine(), "casadi": ca.__version__,
