@@ -58,6 +58,7 @@ from uvms.scene import Plane
 class Verdict(Enum):
     FEASIBLE = "feasible"
     INFEASIBLE = "infeasible"
+    UNDECIDED = "not certified by the screens (the minimum-violation problem was not asked)"
 
 
 class Method(Enum):
@@ -66,6 +67,7 @@ class Method(Enum):
     MODE_I_PLAN = "Mode I's plan"
     GLOBALIZED_SQP = "Mode I's SQP with a line search"
     MINIMUM_VIOLATION = "minimum violation"
+    SCREENS = "screens only"
 
 
 @dataclass(frozen=True)
@@ -74,7 +76,7 @@ class Certificate:
 
     verdict: Verdict
     method: Method
-    violation: float  # m: minimum total clearance violation (0 when the rollout certified F)
+    violation: float  # m: minimum total clearance violation (0 when a screen certified F; nan: UNDECIDED)
     rollout_clearance: float  # m: smallest clearance minus margin along the braking rollout
     solve_time: float  # s
     solution: OCPSolution | None  # the minimum-violation solution, or the line-search SQP's certified plan
@@ -149,11 +151,13 @@ class FeasibilityTest:
 
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
                  previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None,
-                 fresh: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None) -> Certificate:
+                 fresh: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None,
+                 minimum_violation: bool = True) -> Certificate:
         """The verdict for the measured state h0. `plan`: the previous Mode I plan shifted by one
         interval, as (states re-simulated from h0, inputs): the second screen. `fresh`: called
         when the screens before it fail, returns a new Mode I plan in the same form (or None): the
-        third."""
+        third. With `minimum_violation=False` the screens alone decide: UNDECIDED when none of them
+        finds a point of F (fast: no IPOPT)."""
         t0 = time.perf_counter()
         hs, us = self.braking_rollout(h0, current)
         margin = self.min_clearance(hs) - self.settings.distance_margin
@@ -169,6 +173,8 @@ class FeasibilityTest:
         sol = self.search_plan(h0, h_ref, plan if plan is not None else (hs, us), current)
         if sol is not None:
             return Certificate(Verdict.FEASIBLE, Method.GLOBALIZED_SQP, 0.0, margin, time.perf_counter() - t0, sol, hs)
+        if not minimum_violation:
+            return Certificate(Verdict.UNDECIDED, Method.SCREENS, np.nan, margin, time.perf_counter() - t0, None, hs)
         if self.warm is not None and candidate is not None:
             sol = self.warm.solve(h0, h_ref, current, guess=self.warm.guess_from_rollout(*candidate))
         else:

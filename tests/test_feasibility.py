@@ -64,6 +64,21 @@ def test_certificate(certificate, params, gap, speed, verdict, method) -> None:
 
 
 @pytest.mark.slow
+def test_screens_alone_leave_the_tight_case_undecided(certificate, params) -> None:
+    """minimum_violation=False (SwitchingSettings.minimum_violation, "switching-screens"): a case the
+    braking rollout certifies gets the full test's verdict; the tight case, which only the
+    minimum-violation problem certifies (zero violation), is UNDECIDED (no violation: nan, no
+    solution: the problem was not solved)."""
+    h, ref = approach(params, 0.2, 0.5)
+    assert certificate(h, ref, minimum_violation=False).method is Method.BRAKING_ROLLOUT
+    h, ref = approach(params, 0.07, 0.3)
+    screened, full = certificate(h, ref, minimum_violation=False), certificate(h, ref)
+    assert (screened.verdict, screened.method) == (Verdict.UNDECIDED, Method.SCREENS) and np.isnan(screened.violation)
+    assert (full.verdict, full.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
+    assert screened.solution is None and full.solution is not None
+
+
+@pytest.mark.slow
 def test_plan_screen_accepts_only_plans_inside_the_bounds(certificate, params) -> None:
     """The plan screens (previous plan, fresh Mode I plan) certify F by exhibiting a point of it.
     Oracle: the braking rollout of the 'far' case, which keeps every clearance above the margin

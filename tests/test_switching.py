@@ -110,3 +110,50 @@ def test_contact_check_holds_mode_three_until_the_tip_is_on_the_plane(params, sc
     on[6:6 + params.n_joints] = ctl.ocp3(wall).onto_plane(h)
     assert abs(float(tip_gap(model, on, scene.planes[wall]))) < 1e-6
     assert ctl.step(on, 0.0)[1].mode is Mode.III
+
+
+@pytest.mark.slow
+def test_mode_three_lets_go_only_when_mode_one_certifies_F(params, scene) -> None:
+    """SwitchingSettings(certified_release=True) (opt-in), the controller in Mode III with the tip on the
+    wall (Wall_InvKin) and the hull 0.3 m off, moving away at 0.1 m/s (faster than
+    `separation_speed`). With working thrusters Mode I's certificate screens find a point of F, so the
+    step is Mode I; oracle: the plan's inputs, re-simulated by the model's RK4 at 20 substeps per
+    interval, keep every body at least 1.5 cm off every plane (Mode I's 2 cm margin less the
+    4-substep re-simulation's error) and within the input bounds. With every thruster dead and a
+    0.3 m/s current towards the wall no screen certifies F, so the arm keeps holding the wall (Mode
+    III, the screens' UNDECIDED certificate in its StepInfo). Without the setting (the default, the
+    paper's rule with a 0.05 m/s threshold) that same state leaves Mode III, Mode I's full certificate
+    then finds F empty and the step re-enters Mode II: the II/III cycle that the setting removes."""
+    from controller.feasibility import Verdict
+    from controller.rollouts import simulate
+
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, Scenario("leaving", "", gap=0.3, speed=-0.1))
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+
+    def holding(settings: SwitchingSettings) -> tuple[SwitchingNMPC, np.ndarray]:
+        ctl = SwitchingNMPC(model, scene.planes, ref, settings)
+        ctl.mode, ctl._reported_mode, ctl.contact = Mode.III, Mode.III, wall
+        on = h.copy()
+        on[6:6 + params.n_joints] = ctl.ocp3(wall).onto_plane(h)
+        return ctl, on
+
+    certified = SwitchingSettings(certified_release=True)
+    ctl, on = holding(certified)
+    plane = scene.planes[wall]
+    assert float(np.asarray(model.closing_speeds(on, plane.normal, plane.offset)).ravel()[0]) > 0.09
+    info = ctl.step(on, 0.0)[1]
+    assert info.mode is Mode.I and info.certificate.verdict is Verdict.FEASIBLE
+    hs = simulate(model, on, info.u_pred, info.dt, substeps=20)
+    lo, hi = params.input_bounds()
+    assert np.all(info.u_pred >= lo - 1e-9) and np.all(info.u_pred <= hi + 1e-9)
+    assert min(float(np.min(np.asarray(model.distances(x, p.normal, p.offset)))) for x in hs[1:]
+               for p in scene.planes) > 0.015
+
+    stuck = replace(certified, failed_thrusters=tuple(range(params.n_thrusters)), current=(0.3, 0.0, 0.0))
+    ctl, on = holding(stuck)
+    info = ctl.step(on, 0.0)[1]
+    assert info.mode is Mode.III and info.certificate.verdict is Verdict.UNDECIDED
+    ctl, on = holding(replace(stuck, certified_release=False))
+    info = ctl.step(on, 0.0)[1]
+    assert info.mode is Mode.II and info.switch is not None and info.certificate.verdict is Verdict.INFEASIBLE

@@ -112,6 +112,7 @@ def build_plant(sc: Scenario, mismatch: str, seed: int) -> tuple[UVMSParams, Sce
 SEARCH_ITERATIONS = 20  # the certificate's line-search screen in "switching-search"
 CONTACT_MARGIN = 0.02  # m: Modes II and III's body clearance in "switching-contact-margin" (default 5 mm)
 SOFT_TIP_WEIGHT = 4.0  # s/m: J_II's weight on the tip's speed at contact in "switching-soft-tip" (default 2)
+SCREEN_MARGIN = 0.015  # m: the clearance F's plans keep in "switching-screens" (Mode I's 2 cm less 5 mm)
 CERTIFICATE_MARGIN = 0.04  # m: the clearance F's plans keep in "switching-warm-margin" (default: Mode I's 2 cm)
 
 
@@ -136,6 +137,9 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
                                                                       dt_bounds=(0.05, 0.1))),
     "switching-search": lambda s: replace(paper(s), certificate_search=SEARCH_ITERATIONS),
     "switching-searching": lambda s: replace(s, certificate_search=SEARCH_ITERATIONS),  # on today's hand-over
+    "switching-certified-release": lambda s: replace(s, certified_release=True),
+    "switching-certified-release-at-rest": lambda s: replace(s, certified_release=True, separation_speed=0.0),
+    "switching-screens": lambda s: replace(s, minimum_violation=False, certificate_margin=SCREEN_MARGIN),
     "switching-soft-tip": lambda s: replace(s, mode2=replace(s.mode2, ee_speed_weight=SOFT_TIP_WEIGHT)),
     "switching-warm": lambda s: replace(paper(s), certificate_warm_start=True),
     "switching-warm-margin": lambda s: replace(paper(s), certificate_warm_start=True,
