@@ -244,14 +244,13 @@ class SwitchingNMPC:
             raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
                              f"{self.model.n_states} finite numbers")
         distances, closing = self._geometry(h)
-        release = None  # Mode III's hold on the wall may end this step, if Mode I's screens certify F
+        release = False  # Mode III's hold on the wall ends this step if Mode I's screens certify F
         if self.mode is Mode.III and self._reported_mode is Mode.III:
             if self._mode3_fell_back:
                 self.mode, self._plan = Mode.I, None
             elif closing[self.contact, 0] > self.settings.separation_speed:
-                if self.settings.certified_release:
-                    release = closing
-                else:
+                release = self.settings.certified_release
+                if not release:
                     self.mode, self._plan = Mode.I, None
         if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h):
             if closing[self.contact, 0] > self.settings.separation_speed:  # no contact needed: the certificate decides
@@ -260,7 +259,7 @@ class SwitchingNMPC:
                 self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         t0 = time.perf_counter()
         self._switch, self._release_probe = None, None
-        out = self._step_mode1(h, t, release=True) if release is not None else None
+        out = self._step_mode1(h, t, release=True) if release else None
         if out is not None:
             self.mode = Mode.I
         elif self.mode is Mode.I:
