@@ -17,24 +17,31 @@ moves the hull) and tilts the hull to use the vertical thrusters, so it avoids w
 hits. F's threshold speed v* (threshold_speed: a grid, then bisection, on the second truth, per
 approach: level hull facing the wall, arm stowed, its closest body `gap` m from the wall, velocity
 `angle` deg off the wall's normal) sets the speeds 0.5, 0.8, 0.9, 1.1, 1.25 and 1.5 v* (outside the +-5% band); each is
-labelled by both truths at that speed and given to three certificates as the closed loop's first
+labelled by both truths at that speed and given to four certificates as the closed loop's first
 Mode I step asks them (no previous plan; Mode I's fresh real-time plan as a screen): the default
 (the braking rollout, Mode I's plan, then the minimum-violation problem from the rollout), the
-warm-started one (the minimum-violation problem from Mode I's plan) and the one with the optional
-line-search SQP screen (controller.feasibility says why both are off by default).
+warm-started one (the minimum-violation problem from Mode I's plan), the one with the optional
+line-search SQP screen (controller.feasibility says why both are off by default) and the screens
+alone at 1.5 cm of clearance ("switching-screens": no IPOPT; not certified counts as unavoidable).
+The same four certificates and both truths are also given the issue's own set: head-on approaches
+with gaps of 15 and 20 cm at the same factors of the braking rollout's threshold speed (its braking
+limit, braking_threshold: 1.3 and 1.5 m/s). The rollout's labels are not monotone in speed on
+smaller gaps or at 30 deg (at 10 cm head-on: feasible at 0.05-0.4 m/s, not at 0.45-0.55, again at
+0.6-1.05 m/s; the attitude hold and the pitch that braking induces change which body comes
+closest), so those approaches have no single braking limit and are refused.
 F is the OCP's, on the implicit midpoint rule at its nodes: the table also gives the smallest
 clearance of the default certificate's minimum-violation plan (when it has one) under fine RK4
 (10 substeps an interval), which shows how far the true trajectory between and at the nodes
 departs from the discretized one.
 
-`python -m validation.certificate_accuracy` prints the table and writes
+`python -m validation.certificate_accuracy` prints the tables and writes
 bench/results/certificate_accuracy.md (about 15 min).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -44,8 +51,8 @@ from controller.mode1 import ModeIOCP
 from controller.model import UVMSModel
 from controller.rollouts import simulate
 from uvms import load_params, load_scene
+from validation.closed_loop import SCREEN_MARGIN, wall_x
 from validation.closed_loop import SEARCH_ITERATIONS as SEARCH
-from validation.closed_loop import wall_x
 
 FACTORS = (0.5, 0.8, 0.9, 1.1, 1.25, 1.5)
 OUT = Path(__file__).resolve().parent.parent / "bench" / "results"
@@ -73,6 +80,7 @@ class Case:
     fine_clearance: float  # m, its minimum-violation plan under fine RK4 (nan when a screen certified)
     warm: Verdicts  # with SwitchingSettings.certificate_warm_start
     searched: Verdicts  # with the line-search SQP screen
+    screened: Verdicts  # the screens alone, at 1.5 cm ("switching-screens"; not certified counts as infeasible)
 
 
 def approach(test: FeasibilityTest, gap: float, angle: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -181,11 +189,12 @@ def label(ok: bool) -> Verdict:
     return Verdict.FEASIBLE if ok else Verdict.INFEASIBLE
 
 
-def certify(test: FeasibilityTest, mode1: ModeIOCP, h: np.ndarray,
-            ref: np.ndarray) -> tuple[Verdicts, Certificate, np.ndarray | None]:
+def certify(test: FeasibilityTest, mode1: ModeIOCP, h: np.ndarray, ref: np.ndarray,
+            minimum_violation: bool = True) -> tuple[Verdicts, Certificate, np.ndarray | None]:
     """A certificate's verdict as the closed loop's first Mode I step asks for it: no previous
     plan, and Mode I's fresh plan (its real-time SQP from h held, re-simulated by RK4) as the third
-    screen. Also the inputs (N, nu) of the point of F it found (None: none, or the braking rollout)."""
+    screen; UNDECIDED (screens alone) counts as infeasible, as the switch takes it. Also the inputs
+    (N, nu) of the point of F it found (None: none, or the braking rollout)."""
     plans = []
 
     def fresh() -> tuple[np.ndarray, np.ndarray] | None:
@@ -193,83 +202,137 @@ def certify(test: FeasibilityTest, mode1: ModeIOCP, h: np.ndarray,
         plans.append(sol.u)
         return (simulate(test.model, h, sol.u, test.settings.dt), sol.u) if sol.status.usable else None
 
-    c = test(h, ref, fresh=fresh)
+    c = test(h, ref, fresh=fresh, minimum_violation=minimum_violation)
     found = None
     if c.verdict is Verdict.FEASIBLE:
         found = plans[-1] if c.method is Method.MODE_I_PLAN else c.solution.u if c.solution is not None else None
-    return Verdicts(c.verdict, c.method, c.violation, c.solve_time), c, found
+    verdict = Verdict.INFEASIBLE if c.verdict is Verdict.UNDECIDED else c.verdict
+    return Verdicts(verdict, c.method, c.violation, c.solve_time), c, found
 
 
-def evaluate(approaches=((0.02, 0.0), (0.03, 0.0), (0.01, 30.0), (0.02, 30.0))) -> tuple[list[Case], list[str]]:
-    """The three certificates on each labelled case, and the approaches whose F labels are not
-    monotone in speed. F's labels use every way any certificate finds a feasible point, and more
-    starts. The gaps (m, closest body to the wall) are small so that every threshold lies within
-    the threshold search's 1 m/s (at 0.05 m head-on and at 0.03 m and 30 deg, F is not empty up to
-    1 m/s)."""
+def braking_threshold(test: FeasibilityTest, gap: float, angle: float, step: float = 0.05, top: float = 2.5,
+                      tol: float = 1e-3) -> float:
+    """The braking rollout's threshold speed [m/s] (the issue's braking limit): its labels on a grid
+    of `step` up to `top`, which must be monotone in speed, then bisection to `tol`."""
+    grid = np.arange(1, round(top / step) + 1) * step
+    ok = [rollout_feasible(test, approach(test, gap, angle, v)[0]) for v in grid]
+    if ok != sorted(ok, reverse=True) or all(ok) or not any(ok):
+        raise ValueError(f"approach {gap} m, {angle} deg: the braking rollout's labels on 0.05 to {top} m/s are not "
+                         "feasible then infeasible; allowed: approaches with one braking limit within that range")
+    k = ok.index(False)
+    lo, hi = grid[k - 1], grid[k]
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if rollout_feasible(test, approach(test, gap, angle, mid)[0]) else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+@dataclass(frozen=True)
+class Certificates:
+    """The four certificates of `evaluate` and Mode I's real-time solver that gives them a fresh plan."""
+
+    default: FeasibilityTest
+    warm: FeasibilityTest
+    searching: FeasibilityTest
+    screens: FeasibilityTest
+    mode1: ModeIOCP
+
+
+def labelled(cs: Certificates, gap: float, angle: float, threshold: float, bank: Bank) -> list[Case]:
+    """The cases of one approach at FACTORS times `threshold` [m/s]: both truths and the four verdicts."""
+    rows = []
+    for f in FACTORS:
+        h, ref = approach(cs.default, gap, angle, f * threshold)
+        (default, c, u1), (warmed, _, u2), (searched, _, u3) = (certify(t, cs.mode1, h, ref)
+                                                                for t in (cs.default, cs.warm, cs.searching))
+        screened = certify(cs.screens, cs.mode1, h, ref, minimum_violation=False)[0]
+        truth = bank.label(cs.searching, h, ref, f * threshold, [u for u in (u1, u2, u3) if u is not None])
+        fine = fine_clearance(cs.default, h, c.solution.u) if c.solution is not None else np.nan
+        rows.append(Case(gap, angle, f * threshold, threshold, label(rollout_feasible(cs.default, h)), label(truth),
+                         default, fine, warmed, searched, screened))
+    return rows
+
+
+def evaluate(approaches=((0.02, 0.0), (0.03, 0.0), (0.01, 30.0), (0.02, 30.0)),
+             braking_approaches=((0.15, 0.0), (0.2, 0.0))
+             ) -> tuple[list[Case], list[Case], list[str]]:
+    """The four certificates on each labelled case around F's threshold (`approaches`) and around
+    the braking rollout's (`braking_approaches`: the issue's set), and the approaches whose F labels
+    are not monotone in speed. F's labels use every way any certificate finds a feasible point, and
+    more starts. The gaps (m, closest body to the wall) around F's threshold are small so that every
+    threshold lies within the threshold search's 1 m/s (at 0.05 m head-on and at 0.03 m and 30 deg,
+    F is not empty up to 1 m/s)."""
     params, scene = load_params(), load_scene()
     model = UVMSModel(params, scene.water)
     test = FeasibilityTest(model, scene.planes)
-    warm = FeasibilityTest(model, scene.planes, warm_start=True)
-    searching = FeasibilityTest(model, scene.planes, search_iterations=SEARCH)
-    mode1 = ModeIOCP(model, scene.planes, test.settings)
-    cases, non_monotone = [], []
-    for gap, angle in approaches:
-        bank = Bank()
-        v_star = threshold_speed(searching, gap, angle, bank)
-        rows = []
-        for f in FACTORS:
-            h, ref = approach(test, gap, angle, f * v_star)
-            (default, c, u1), (warmed, _, u2), (searched, _, u3) = (certify(t, mode1, h, ref)
-                                                                    for t in (test, warm, searching))
-            truth = bank.label(searching, h, ref, f * v_star, [u for u in (u1, u2, u3) if u is not None])
-            fine = fine_clearance(test, h, c.solution.u) if c.solution is not None else np.nan
-            rows.append(Case(gap, angle, f * v_star, v_star, label(rollout_feasible(test, h)), label(truth),
-                             default, fine, warmed, searched))
-        labels = [ok for _, ok in sorted(bank.labels)]  # the threshold search's and the cases' labels
-        if labels != sorted(labels, reverse=True):
-            non_monotone.append(f"{gap:g} m, {angle:g} deg")
-        cases += rows
-    return cases, non_monotone
+    cs = Certificates(test, FeasibilityTest(model, scene.planes, warm_start=True),
+                      FeasibilityTest(model, scene.planes, search_iterations=SEARCH),
+                      FeasibilityTest(model, scene.planes, replace(test.settings, distance_margin=SCREEN_MARGIN)),
+                      ModeIOCP(model, scene.planes, test.settings))
+    cases, braking, non_monotone = [], [], []
+    for group, where in ((approaches, cases), (braking_approaches, braking)):
+        for gap, angle in group:
+            bank = Bank()
+            v = (threshold_speed(cs.searching, gap, angle, bank) if where is cases
+                 else braking_threshold(test, gap, angle))
+            where += labelled(cs, gap, angle, v, bank)
+            labels = [ok for _, ok in sorted(bank.labels)]  # the threshold search's and the cases' labels
+            if labels != sorted(labels, reverse=True):
+                non_monotone.append(f"{gap:g} m, {angle:g} deg")
+    return cases, braking, non_monotone
 
 
-def main() -> None:
-    cases, non_monotone = evaluate()
-    lines = ["| gap [m] | angle [deg] | v* of F [m/s] | speed / v* | braking rollout | F | "
+def table(cases: Sequence[Case], threshold: str) -> list[str]:
+    lines = [f"| gap [m] | angle [deg] | {threshold} [m/s] | speed / it | braking rollout | F | "
              "certificate | its evidence | min. violation [m] | plan's clearance, fine RK4 [m] | time [s] | "
-             "warm-started | its evidence | time [s] | with the search screen | its evidence | time [s] |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "warm-started | its evidence | time [s] | with the search screen | its evidence | time [s] | "
+             "screens alone (1.5 cm) | its evidence | time [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in cases:
-        d, w, s = c.default, c.warm, c.searched
+        d, w, s, o = c.default, c.warm, c.searched, c.screened
         lines.append(f"| {c.gap:g} | {c.angle:g} | {c.threshold:.3f} | {c.speed / c.threshold:.2f} | "
                      f"{c.rollout.value} | {c.truth.value} | {d.verdict.value} | {d.method.value} | "
                      f"{d.violation:.4f} | {c.fine_clearance:.4f} | {d.seconds:.2f} | {w.verdict.value} | "
-                     f"{w.method.value} | {w.seconds:.2f} | {s.verdict.value} | {s.method.value} | {s.seconds:.2f} |")
+                     f"{w.method.value} | {w.seconds:.2f} | {s.verdict.value} | {s.method.value} | {s.seconds:.2f} | "
+                     f"{o.verdict.value} | {o.method.value} | {o.seconds:.2f} |")
+    return lines
 
+
+def summary(cases: Sequence[Case]) -> str:
     def errors(name: str, truth: str) -> str:
         wrong = [c for c in cases if getattr(c, name).verdict is not getattr(c, truth)]
         fa = sum(getattr(c, truth) is Verdict.INFEASIBLE for c in wrong)
         return f"{len(wrong)} disagreements ({fa} false 'avoidable', {len(wrong) - fa} false 'unavoidable')"
 
-    def median(name: str) -> float:
-        return float(np.median([getattr(c, name).seconds for c in cases]))
-
     def report(name: str, title: str) -> str:
+        median = float(np.median([getattr(c, name).seconds for c in cases]))
         return (f"{title}: against F {errors(name, 'truth')}, against the braking rollout "
-                f"{errors(name, 'rollout')}, median {median(name):.2f} s.")
+                f"{errors(name, 'rollout')}, median {median:.2f} s.")
 
-    summary = (
-        f"{len(cases)} labelled cases, all outside the +-5% band around F's threshold speed; each certificate "
-        "is asked as at the closed loop's first Mode I step (no previous plan, Mode I's fresh plan as a "
-        "screen). " + report("default", "The default certificate") + " " +
-        report("warm", "Warm-started (the minimum-violation problem from Mode I's fresh plan)") + " " +
-        report("searched", f"With the line-search screen ({SEARCH} iterations)") + " F's labels (the threshold "
-        "search's and the cases') are monotone in speed " +
-        ("on every approach." if not non_monotone else f"except on {'; '.join(non_monotone)}.") +
+    return " ".join((
+        report("default", "The default certificate"),
+        report("warm", "Warm-started (the minimum-violation problem from Mode I's fresh plan)"),
+        report("searched", f"With the line-search screen ({SEARCH} iterations)"),
+        report("screened", f"The screens alone, asking {100 * SCREEN_MARGIN:g} cm of clearance "
+               "(\"switching-screens\"; not certified counts as unavoidable)")))
+
+
+def main() -> None:
+    cases, braking, non_monotone = evaluate()
+    text = (
+        "# Feasibility certificate accuracy\n\n"
+        "Each certificate is asked as at the closed loop's first Mode I step (no previous plan, Mode I's fresh plan "
+        "as a screen); every case lies outside the +-5% band around its set's threshold speed. F's labels (the "
+        "threshold search's and the cases') are monotone in speed "
+        + ("on every approach." if not non_monotone else f"except on {'; '.join(non_monotone)}.") +
         " Every way the certificates find a feasible point is also one of F's, so they cannot call an approach "
-        "avoidable that F calls unavoidable; what the table measures against F is the other error. The braking "
+        "avoidable that F calls unavoidable; what the tables measure against F is the other error. The braking "
         "rollout is a weaker truth than F (the OCP also swings the arm and tilts the hull), so against it the "
-        "error is false 'avoidable'.")
-    text = "# Feasibility certificate accuracy\n\n" + summary + "\n\n" + "\n".join(lines) + "\n"
+        "error is false 'avoidable'.\n\n"
+        f"## Around F's threshold speed v* ({len(cases)} cases)\n\n" + summary(cases) + "\n\n"
+        + "\n".join(table(cases, "v* of F")) + "\n\n"
+        f"## Around the braking rollout's threshold speed, the issue's braking limit ({len(braking)} cases)\n\n"
+        + summary(braking) + "\n\n" + "\n".join(table(braking, "braking limit")) + "\n")
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "certificate_accuracy.md").write_text(text)
     print(text)
