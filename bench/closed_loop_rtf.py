@@ -1,5 +1,7 @@
 """Closed-loop real-time factor (simulated seconds per wall-clock second) of wall-headon in MuJoCo,
-with and without a Rerun recording, side by side in one run (issue 5's benchmark).
+with and without a Rerun recording, side by side in one run (issue 5's benchmark), and the
+controller's whole-step times per mode; also with the certificate's screens alone
+("switching-screens": no IPOPT in Mode I's step).
 Run: `python bench/closed_loop_rtf.py`; writes bench/results/closed_loop_rtf.json and .md.
 """
 
@@ -8,8 +10,11 @@ from __future__ import annotations
 import json
 import platform
 import tempfile
+from collections import defaultdict
 from dataclasses import replace
 from pathlib import Path
+
+import numpy as np
 
 from validation.closed_loop import run
 from validation.scenarios import get
@@ -23,20 +28,28 @@ def main() -> None:
     sc = replace(get("wall-headon"), duration=DURATION)
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for name, record in (("without recording", None), ("with recording", Path(tmp) / "run.rrd")):
-            s = run(sc, record=record, seed=SEED)
+        for name, record, controller in (("without recording", None, "switching"),
+                                         ("with recording", Path(tmp) / "run.rrd", "switching"),
+                                         ("switching-screens, without recording", None, "switching-screens")):
+            s = run(sc, record=record, seed=SEED, controller=controller)
+            times = defaultdict(list)
+            for step in s["steps"]:
+                times[step["mode"]].append(1e3 * step["solve_time"])
             rows[name] = {"simulated_s": s["simulated_s"], "wall_clock_s": s["wall_clock_s"],
                           "real_time_factor": s["simulated_s"] / s["wall_clock_s"], "modes": s["modes"],
-                          "steps": len(s["steps"])}
+                          "steps": len(s["steps"]),
+                          "step_ms": {m: [float(np.median(t)), float(np.percentile(t, 95))] for m, t in times.items()}}
     OUT.mkdir(exist_ok=True)
     (OUT / "closed_loop_rtf.json").write_text(json.dumps({"machine": platform.machine(), "rows": rows}, indent=2))
     lines = [f"# Closed-loop real-time factor, wall-headon in MuJoCo ({platform.machine()}, 2 cores)", "",
              f"`python bench/closed_loop_rtf.py`: {DURATION} s simulated, default mismatch seed {SEED}.", "",
-             "| variant | simulated [s] | wall clock [s] | real-time factor | steps | modes |",
-             "|---|---|---|---|---|---|"]
+             "| variant | simulated [s] | wall clock [s] | real-time factor | steps | modes | "
+             "step time median / p95 [ms] per mode |",
+             "|---|---|---|---|---|---|---|"]
     for k, r in rows.items():
+        per_mode = ", ".join(f"{m}: {a:.0f} / {b:.0f}" for m, (a, b) in r["step_ms"].items())
         lines.append(f"| {k} | {r['simulated_s']:.1f} | {r['wall_clock_s']:.1f} | {r['real_time_factor']:.3f} | "
-                     f"{r['steps']} | {' > '.join(r['modes'])} |")
+                     f"{r['steps']} | {' > '.join(r['modes'])} | {per_mode} |")
     (OUT / "closed_loop_rtf.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
