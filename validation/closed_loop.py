@@ -155,7 +155,8 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
 
 def certificate_row(c: Certificate | None) -> dict | None:
     """A step's feasibility certificate for summary.json: the verdict, its evidence, the minimum
-    violation [m] (null: IPOPT failed, which counts as F empty) and the time [s]."""
+    violation [m] (null: IPOPT failed, which counts as F empty, or the screens alone decided) and
+    the time [s]."""
     if c is None:
         return None
     return {"verdict": c.verdict.value, "method": c.method.value,
@@ -180,13 +181,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
 
     `controller`: "switching" (ours), "mode1-only" (the same NMPC without switching: Mode I, with its
     braking fallback when a solve fails), "braking" (maximum thruster braking with attitude hold,
-    the arm held at its posture: controller.rollouts.BrakingPolicy), or a variant of ours:
-    "switching-search" (the certificate's optional line-search SQP screen, controller.feasibility),
-    "switching-warm" (the minimum-violation problem started from Mode I's fresh plan),
-    "switching-warm-margin" (that, and a certificate asking 4 cm of clearance instead of Mode I's 2
-    cm), "switching-deadline" (also switch when Mode II would otherwise have no time to deploy the
-    arm: controller.switching.SwitchingSettings.deploy_deadline) or "switching-contact-margin"
-    (Modes II and III keep bodies 2 cm off instead of 5 mm)."""
+    the arm held at its posture: controller.rollouts.BrakingPolicy), or a variant of ours by its
+    name in CONTROLLERS (each a change of SwitchingSettings, documented where the setting is)."""
     if controller not in CONTROLLERS:
         raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
     settings = CONTROLLERS[controller](settings or SwitchingSettings())
