@@ -32,8 +32,9 @@ under the current (bench/results/certified_release; the note on issue 4). That i
 
 Optional (`minimum_violation=False`, off by default): the certificate's screens alone decide, and
 F counts as empty when none of them finds a point of it (SwitchReason.NOT_CERTIFIED): no IPOPT in
-Mode I's step, at the price of switching as soon as the real-time plan leans on the margin (with
-`certificate_margin` below Mode I's, for the re-simulation's few millimetres: "switching-screens").
+Mode I's step, at the price of switching as soon as the real-time plan leans on the margin
+("switching-screens": with `certificate_margin` 5 mm below Mode I's, for the re-simulation's few
+millimetres, and the certified release, so that the screens decide both ways).
 
 Optional (`deploy_deadline`, off by default; not in the paper): also leave Mode I, with F not
 found empty, when the certificate's braking rollout brings a body that Mode II protects within the

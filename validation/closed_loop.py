@@ -139,7 +139,8 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-searching": lambda s: replace(s, certificate_search=SEARCH_ITERATIONS),  # on today's hand-over
     "switching-certified-release": lambda s: replace(s, certified_release=True),
     "switching-certified-release-at-rest": lambda s: replace(s, certified_release=True, separation_speed=0.0),
-    "switching-screens": lambda s: replace(s, minimum_violation=False, certificate_margin=SCREEN_MARGIN),
+    "switching-screens": lambda s: replace(s, minimum_violation=False, certificate_margin=SCREEN_MARGIN,
+                                           certified_release=True),  # the screens decide both ways
     "switching-soft-tip": lambda s: replace(s, mode2=replace(s.mode2, ee_speed_weight=SOFT_TIP_WEIGHT)),
     "switching-warm": lambda s: replace(paper(s), certificate_warm_start=True),
     "switching-warm-margin": lambda s: replace(paper(s), certificate_warm_start=True,

@@ -2,13 +2,14 @@
 closed loop is issue 5): wall approaches, the input held over each step's dt (Mode II's dt*), the
 plant validation.model_plant.ModelPlant (the model's RK4 at 2 ms with a penalty tip contact).
 
-`python -m validation.kane_closed_loop [NAME ...]` runs the scenarios, prints a table and writes
-bench/results/kane_closed_loop.md.
+`python -m validation.kane_closed_loop [--controller NAME] [SCENARIO ...]` runs the scenarios,
+prints a table and writes bench/results/kane_closed_loop.md (for a variant NAME of
+validation.closed_loop.CONTROLLERS other than "switching": kane_closed_loop_NAME.md).
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
 from collections import Counter
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -18,7 +19,7 @@ import numpy as np
 from controller.model import UVMSModel
 from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings
 from uvms import load_params, load_scene
-from validation.closed_loop import initial_state, switches
+from validation.closed_loop import CONTROLLERS, initial_state, switches
 from validation.model_plant import ModelPlant
 from validation.scenarios import Scenario
 
@@ -97,20 +98,28 @@ def summary_row(r: Run) -> str:
             f"{', '.join(per_mode)} |")
 
 
-def main(names: list[str]) -> None:
+def main(names: list[str], controller: str = "switching") -> None:
     rows = ["| scenario | modes | min hull distance [m] | peak tip force [N] | steps | fallbacks | "
             "switches to Mode II | step time median/p95 [ms] per mode |",
             "|---|---|---|---|---|---|---|---|"]
     for name in names or list(SCENARIOS):
-        r = run(SCENARIOS[name])
+        r = run(SCENARIOS[name], CONTROLLERS[controller](SwitchingSettings()))
         rows.append(summary_row(r))
         print(rows[-1], flush=True)
-    text = ("# Switching NMPC in closed loop on the Kane model\n\n`python -m validation.kane_closed_loop`\n\n"
-            + "\n".join(rows) + "\n")
+    option, suffix = ("", "") if controller == "switching" else (f" --controller {controller}", f"_{controller}")
+    text = (f"# Switching NMPC ({controller}) in closed loop on the Kane model\n\n"
+            f"`python -m validation.kane_closed_loop{option}`\n\n" + "\n".join(rows) + "\n")
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "kane_closed_loop.md").write_text(text)
+    (OUT / f"kane_closed_loop{suffix}.md").write_text(text)
     print(text)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    parser = argparse.ArgumentParser(prog="python -m validation.kane_closed_loop")
+    parser.add_argument("--controller", default="switching", choices=[c for c in CONTROLLERS if c.startswith("switch")])
+    parser.add_argument("scenarios", nargs="*", help=f"default: all of {', '.join(SCENARIOS)}")
+    args = parser.parse_args()
+    unknown = [n for n in args.scenarios if n not in SCENARIOS]
+    if unknown:
+        parser.error(f"unknown scenario {unknown[0]!r}; allowed: {', '.join(SCENARIOS)}")
+    main(args.scenarios, args.controller)
