@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import multiprocessing
+import statistics
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -17,7 +18,9 @@ from validation.scenarios import Scenario
 
 FIELDS = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
           "ee_peak_contact_force", "link_contact_impulse", "max_total_thrust_along_wall_normal",
-          "final_task_error", "fallbacks", "switches", "wall_clock_s", "reason")
+          "final_task_error", "fallbacks", "switches", "wall_clock_s", "step_p95_I_ms", "step_p95_II_ms",
+          "step_p95_III_ms", "reason")
+MODES = ("I", "II", "III")
 
 
 @dataclass(frozen=True)
@@ -36,6 +39,7 @@ def run_job(job: Job) -> dict:
         s = run(job.scenario, controller=job.controller, mismatch=job.mismatch, seed=job.seed)
         row.update({k: s[k] for k in FIELDS if k in s and k not in row})
         row["modes"] = " > ".join(s["modes"])
+        row.update({f"step_p95_{m}_ms": 1e3 * s["solve_time"][m]["p95_s"] for m in MODES if m in s["solve_time"]})
     except Exception as e:  # a failed run is recorded, never fatal to the campaign
         row.update(verdict="error", reason=f"{type(e).__name__}: {e}".splitlines()[0])
     return row
@@ -89,4 +93,14 @@ def markdown(rows: list[dict]) -> str:
     lines += [f"| {f} | " + " | ".join(rate([r for r in rows if r["scenario"] == f and r["controller"] == c])
                                        for c in controllers) + " |" for f in families]
     lines += ["| all | " + " | ".join(rate([r for r in rows if r["controller"] == c]) for c in controllers) + " |"]
+
+    def p95(c: str, m: str) -> str:
+        ms = [float(r[f"step_p95_{m}_ms"]) for r in rows if r["controller"] == c and r.get(f"step_p95_{m}_ms") not in
+              (None, "")]
+        return f"{statistics.median(ms):.0f} ({max(ms):.0f})" if ms else "-"
+
+    lines += ["", "Whole-step time per mode (certificate, guesses, solve), each run's p95 [ms]: the median over the "
+              "runs (the largest):", "", "| mode | " + " | ".join(controllers) + " |",
+              "|" + "---|" * (len(controllers) + 1)]
+    lines += [f"| {m} | " + " | ".join(p95(c, m) for c in controllers) + " |" for m in MODES]
     return "\n".join(lines) + "\n"
