@@ -268,7 +268,7 @@ class SwitchingNMPC:
         elif self.mode is Mode.II:
             out = self._step_mode2(h)
         else:
-            out = self._step_mode3(h, self._release_probe)
+            out = self._step_mode3(h)
         u, status, fallback, iterations, dt, N, hp, up, F, cert = out
         self._last_u = np.clip(u, self.lo, self.hi)
         info = StepInfo(t=t, mode=self._reported_mode, status=status, fallback=fallback,
@@ -383,9 +383,10 @@ class SwitchingNMPC:
             self.mode, self._plan = Mode.III, None
         return u, sol.status, fallback, iters, dt, N, hp, up, None, cert
 
-    def _step_mode3(self, h: np.ndarray, probe: Certificate | None = None):
-        """Mode III's step; `probe`: the certificate that did not release it this step (StepInfo)."""
+    def _step_mode3(self, h: np.ndarray):
+        """Mode III's step; its StepInfo carries the certificate that did not release it, if any."""
         self._reported_mode = Mode.III
+        probe = self._release_probe
         s, ocp = self.settings.mode3, self.ocp3(self.contact)
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
         if previous is not None:  # the Final Algorithm: the plan's recomputed states, shifted, from h

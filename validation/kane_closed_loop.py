@@ -116,7 +116,8 @@ def main(names: list[str], controller: str = "switching") -> None:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(prog="python -m validation.kane_closed_loop")
-    parser.add_argument("--controller", default="switching", choices=[c for c in CONTROLLERS if c.startswith("switch")])
+    variants = [c for c in CONTROLLERS if c != "braking"]  # (the braking baseline runs in MuJoCo only)
+    parser.add_argument("--controller", default="switching", choices=variants)
     parser.add_argument("scenarios", nargs="*", help=f"default: all of {', '.join(SCENARIOS)}")
     args = parser.parse_args()
     unknown = [n for n in args.scenarios if n not in SCENARIOS]
