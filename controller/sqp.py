@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from enum import Enum
 
 import casadi as ca
 import numpy as np
@@ -42,6 +43,18 @@ from controller.stage_nlp import StageProblem, stage_functions
 from controller.transcription import FEASIBLE_VIOLATION, SolverStatus
 
 
+class QPMode(Enum):
+    """HPIPM's presets. SPEED_ABS exits on the barrier parameter alone (no residuals computed): on
+    Mode I's closed loop 7 interior-point iterations per QP against ROBUST's 11, 2.3 ms against
+    4.2 ms; its steps are accurate to about qp_tol, so an SQP iterated to convergence on them stops
+    within about that of the KKT point (tests/test_mode1.py iterates on ROBUST's)."""
+
+    SPEED_ABS = "speed_abs"
+    SPEED = "speed"
+    BALANCE = "balance"
+    ROBUST = "robust"
+
+
 @dataclass(frozen=True)
 class SQPSettings:
     max_iter: int = 2  # SQP iterations per solve (1: the real-time iteration; see bench/results/nmpc_modes.md)
@@ -49,8 +62,8 @@ class SQPSettings:
     step_tol: float = 1e-3  # largest |step| entry at convergence (m, rad, m/s, N...)
     violation_tol: float = 1e-6  # largest constraint violation at convergence (m, N, N m)
     qp_iter_max: int = 50  # HPIPM interior-point iterations
-    qp_mode: str = "robust"  # HPIPM's preset: speed_abs, speed, balance or robust
-    qp_tol: float = 1e-6  # HPIPM's residual tolerances (at 1e-8 it stalls at its cap with a solution accurate to 1e-13)
+    qp_mode: QPMode = QPMode.ROBUST
+    qp_tol: float = 1e-6  # HPIPM's tolerances (ROBUST at 1e-8 and SPEED_ABS at 1e-9 stall at the iteration cap)
     line_search: bool = False  # backtracking on the l1 merit function (else full steps)
     armijo: float = 1e-4  # sufficient-decrease fraction of the merit's directional derivative
     max_halvings: int = 10  # step halvings before the smallest step is taken anyway
@@ -121,19 +134,41 @@ class StageSQP:
             a_diag.append((r, self._col[k + 1], nx))
             h_blocks.append((self._col[k], self._col[k], nxu, nxu))
         h_blocks.append((self._col[N], self._col[N], nx, nx))
-        a_sp, self._a_idx = _block_sparsity((na, nq), a_blocks, a_diag)
-        h_sp, self._h_idx = _block_sparsity((nq, nq), h_blocks)
-        self.qp = ca.conic(f"{name}_qp", "hpipm", {"a": a_sp, "h": h_sp}, {
+        a_sp, a_idx = _block_sparsity((na, nq), a_blocks, a_diag)
+        h_sp, h_idx = _block_sparsity((nq, nq), h_blocks)
+        qp = ca.conic(f"{name}_qp", "hpipm", {"a": a_sp, "h": h_sp}, {
             "N": N, "nx": [nx] * (N + 1), "nu": [self.nu] * N + [0], "ng": [self.ng] * N + [0],
             "print_problem": False, "print_time": False, "error_on_fail": False,
-            "hpipm": {"mode": settings.qp_mode, "iter_max": settings.qp_iter_max, **{
+            "hpipm": {"mode": settings.qp_mode.value, "iter_max": settings.qp_iter_max, **{
                 f"res_{r}_max": settings.qp_tol for r in "gbdm"}}})
-        self._h_sp, self._a_sp = h_sp, a_sp
-        # dense work matrices; the -I blocks of the dynamics rows never change
-        self._A, self._H = np.zeros((na, nq)), np.zeros((nq, nq))
+        # The QP through a wrapping function called on numpy buffers: H's and A's nonzeros go in as
+        # they are (building DMs from them cost more than the QP's Riccati recursion). Calling the
+        # conic itself through Function.buffer returns wrong steps from the second call on (CasADi
+        # 3.8's HPIPM keeps stale state); through the wrapper the steps equal the DM calls' to the
+        # bit (checked on 40 closed-loop QPs, in and out of order). The wrapper's call checks out the
+        # conic's memory 1 (memory 0 serves direct calls): its statistics are read there.
+        args = {"h": ca.MX.sym("h", h_sp), "a": ca.MX.sym("a", a_sp)}
+        args |= {k: ca.MX.sym(k, qp.sparsity_in(k)) for k in ("g", "lba", "uba", "lbx", "ubx")}
+        sol = qp(**args)
+        self.qp = qp
+        self._qp = NumpyCall(ca.Function(f"{name}_qp_call", list(args.values()),
+                                         [sol["x"], sol["lam_a"], sol["lam_x"]], list(args), ["x", "lam_a", "lam_x"]))
+        # where each nonzero of A and H comes from: A's from [T's dynamics blocks (N, nx, nxu), the
+        # path constraints' blocks (N, ng, nxu), -1 (the -I blocks)], H's from the stages' blocks
+        # (N, nxu, nxu) and a zero (the terminal block: the cost has no terminal term)
+        src_a, src_h = np.full((na, nq), -1), np.full((nq, nq), N * nxu * nxu)
+        n_dyn, n_path = N * nx * nxu, N * self.ng * nxu
         for k in range(N):
-            r = k * (nx + self.ng)
-            self._A[r:r + nx, self._col[k + 1]:self._col[k + 1] + nx] = -np.eye(nx)
+            r, col = k * (nx + self.ng), self._col[k]
+            src_a[r:r + nx, col:col + nxu] = k * nx * nxu + np.arange(nx * nxu).reshape(nx, nxu)
+            src_a[r + nx:r + nx + self.ng, col:col + nxu] = n_dyn + k * self.ng * nxu + np.arange(
+                self.ng * nxu).reshape(self.ng, nxu)
+            src_a[r:r + nx, self._col[k + 1]:self._col[k + 1] + nx][np.diag_indices(nx)] = n_dyn + n_path
+            src_h[col:col + nxu, col:col + nxu] = k * nxu * nxu + np.arange(nxu * nxu).reshape(nxu, nxu)
+        self._a_src, self._h_src = src_a[a_idx], src_h[h_idx]
+        self._a_vals = np.zeros(n_dyn + n_path + 1)
+        self._a_vals[-1] = -1.0
+        self._h_vals = np.zeros(N * nxu * nxu + 1)
         nz = nx + nv
         self._keep = np.concatenate([np.r_[k * nz:k * nz + nxu] for k in range(N)] + [np.r_[N * nz:N * nz + nx]])
 
@@ -190,7 +225,7 @@ class StageSQP:
             self._Hs = self._cost_hessian(self._stages(w), p)[0].reshape(N, ns, ns).transpose(0, 2, 1).copy()
         Hs = self._Hs
         status, qp_iters, iterations = SolverStatus.MAX_ITER, 0, 0
-        A, H = self._A, self._H
+        n_dyn = N * nx * nxu
         ix, iu, iz, ix1 = (slice(0, nx), slice(nx, nxu), slice(nxu, nz), slice(nz, nz + nx))
         for iterations in range(1, s.max_iter + 1):  # noqa: B007 (the count is returned)
             out = self._lin(self._stages(w), p)
@@ -218,25 +253,20 @@ class StageSQP:
             lba, uba = np.zeros((N, nx + ng)), np.zeros((N, nx + ng))
             lba[:, :nx] = uba[:, :nx] = -T[:, :nx, -1]
             lba[:, nx:], uba[:, nx:] = lo_g - ce, hi_g - ce
-            for k in range(N):
-                r, col = k * (nx + ng), self._col[k]
-                A[r:r + nx, col:col + nxu] = T[k, :nx, :-1]
-                A[r + nx:r + nx + ng, col:col + nxu] = CD[k]
-                H[col:col + nxu, col:col + nxu] = Hq[k]
+            self._a_vals[:n_dyn] = T[:, :nx, :-1].ravel()
+            self._a_vals[n_dyn:-1] = CD.ravel()
+            self._h_vals[:-1] = Hq.ravel()
             g = np.concatenate([gq.ravel(), np.zeros(nx)])
             lbx, ubx = (lbw - w)[self._keep], (ubw - w)[self._keep]
             lbx[:nx] = ubx[:nx] = p[:nx] - w[:nx]
-            # (called with DMs: through Function.buffer CasADi 3.8's HPIPM interface keeps stale state
-            # between calls and returns wrong steps from the second call on)
-            r = self.qp(h=ca.DM(self._h_sp, H[self._h_idx].tolist()), g=g,
-                        a=ca.DM(self._a_sp, A[self._a_idx].tolist()),
-                        lba=lba.ravel(), uba=uba.ravel(), lbx=lbx, ubx=ubx)
-            st = self.qp.stats()
+            x, lam_a, lam_x = self._qp(self._h_vals[self._h_src], self._a_vals[self._a_src], g, lba.ravel(),
+                                       uba.ravel(), lbx, ubx)
+            st = self.qp.stats(1)  # (see __init__)
             qp_iters += int(st.get("iter_count", 0))
             if not st["success"]:
                 status = SolverStatus.FAILED
                 break
-            d = r["x"].full().ravel()
+            d = x.copy()
             step = np.zeros_like(w)
             step[self._keep] = d
             dxu = np.stack([d[self._col[k]:self._col[k] + nxu] for k in range(N)])
@@ -244,7 +274,7 @@ class StageSQP:
             for k in range(N):
                 step[k * nz + nxu:(k + 1) * nz] = dz[k]
             if s.line_search:
-                lam = np.concatenate([r["lam_a"].full().ravel(), r["lam_x"].full().ravel()])
+                lam = np.concatenate([lam_a, lam_x])
                 rho = max(rho, 2.0 * float(np.abs(lam).max(initial=0.0)))
                 slope = float(np.sum(grad * self._stages(step).reshape(N, ns)))
                 w = w + self._step_length(w, step, slope, rho, p, lbg, ubg, s) * step

@@ -8,7 +8,7 @@ import pytest
 
 from controller.mode1 import ModeIOCP, ModeISettings, Solver, SolverStatus
 from controller.model import UVMSModel
-from controller.sqp import SQPSettings
+from controller.sqp import QPMode, SQPSettings
 
 
 def approach(params, speed: float = 0.3, target: float = 1.8) -> tuple[np.ndarray, np.ndarray]:
@@ -44,12 +44,14 @@ def test_sqp_reaches_the_interior_point_optimum(params, scene) -> None:
     reaches the optimum IPOPT finds with the exact Hessian (tol 1e-9): a fixed point of the SQP is
     a KKT point of the NLP. Tolerances: states within 1e-5 (m, rad, m/s), inputs within 1e-4 of
     their 40 N scale, cost within 1e-8 relative; the SQP stops at steps below 1e-7 and converges
-    linearly (Gauss-Newton), so its iterate is this close, not closer."""
+    linearly (Gauss-Newton), so its iterate is this close, not closer. The QPs are HPIPM's ROBUST
+    ones (residuals to 1e-6): the real-time default's SPEED_ABS steps are accurate to about its
+    barrier tolerance, and its fixed point's cost is 1.6e-8 off."""
     model = UVMSModel(params, scene.water)
     h, ref = approach(params)
     ipopt = ModeIOCP(model, scene.planes, ModeISettings(tol=1e-9, solver=Solver.IPOPT)).solve(h, ref)
-    sqp = ModeIOCP(model, scene.planes, ModeISettings(sqp=SQPSettings(max_iter=200, step_tol=1e-7, violation_tol=1e-9,
-                                                                      real_time=False))).solve(h, ref)
+    sqp = ModeIOCP(model, scene.planes, ModeISettings(sqp=SQPSettings(
+        max_iter=200, step_tol=1e-7, violation_tol=1e-9, real_time=False, qp_mode=QPMode.ROBUST))).solve(h, ref)
     assert ipopt.status is SolverStatus.SUCCESS and sqp.status is SolverStatus.SUCCESS
     assert sqp.violation < 1e-9
     np.testing.assert_allclose(sqp.h, ipopt.h, atol=1e-5)
@@ -112,3 +114,22 @@ def test_avoidable_approach_in_mujoco_never_touches(params, scene) -> None:
         closest = min(closest, float(report.distances.min()))
     assert closest > 0.01
     assert abs(report.h[6 + params.n_joints]) < 0.01  # at rest
+
+
+def test_sqp_reports_an_infeasible_qp_as_failed(params, scene) -> None:
+    """A QP that cannot be solved is FAILED, never a usable plan, and does not spoil the next solve:
+    after a solve from the avoidable approach, every clearance is asked to be 50 m (no input
+    within the thrust limits moves the hull that far in 2 s), then the original problem is solved
+    again. Oracle: the constraint bounds themselves (the iterate violates them by about 50 m)."""
+    model = UVMSModel(params, scene.water)
+    ocp = ModeIOCP(model, scene.planes, ModeISettings())
+    h, ref = approach(params)
+    first = ocp.solve(h, ref)
+    sqp, pr = ocp.sqp, ocp.sqp.pr
+    lbg, ubg = ocp.lbg[ocp.ns:].copy(), ocp.ubg[ocp.ns:].copy()
+    lbg.reshape(pr.horizon, pr.nc)[:, sqp.nd:] = 50.0
+    ubg.reshape(pr.horizon, pr.nc)[:, sqp.nd:] = np.inf
+    bad = sqp.solve(first.w, np.concatenate([h, ref, np.zeros(3)]), ocp.lbw, ocp.ubw, lbg, ubg)
+    again = ocp.solve(h, ref, previous=first)
+    assert first.status.usable and again.status.usable
+    assert bad.status is SolverStatus.FAILED and bad.violation > 40.0
