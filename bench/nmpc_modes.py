@@ -8,6 +8,7 @@ dt = 0.1 s, default vehicle (4-joint arm). Variants in one run:
   - ours (default): Gauss-Newton SQP, HPIPM's Riccati QP, two iterations per period, warm-started
     from the shifted previous solution (controller.sqp);
   - ours, one iteration per period: the real-time iteration;
+  - ours with HPIPM's SPEED_ABS QPs instead of ROBUST ones (controller.sqp.QPMode);
   - ours, SQP to convergence (steps below 1e-3, at most 10 iterations);
   - ours, IPOPT: the same compiled stage derivatives, exact Hessian, warm-started from the shifted
     previous solution and its multipliers;
@@ -42,7 +43,7 @@ import numpy as np
 
 from controller.mode1 import ModeIOCP, ModeISettings, Solver, _default_state_weights
 from controller.model import UVMSModel
-from controller.sqp import SQPSettings
+from controller.sqp import QPMode, SQPSettings
 from controller.switching import Mode, SwitchingSettings
 from controller.transcription import clearances
 from uvms import load_params, load_scene
@@ -86,6 +87,8 @@ COLD = "(a) CasADi + IPOPT, expanded SX, cold start"
 VARIANTS = {
     OURS: ModeISettings(),
     "ours: SQP + HPIPM, 1 iteration per period (RTI)": ModeISettings(sqp=SQPSettings(max_iter=1)),
+    "ours: SQP + HPIPM's SPEED_ABS QPs, 2 iterations per period": ModeISettings(sqp=SQPSettings(
+        qp_mode=QPMode.SPEED_ABS)),
     "ours: SQP + HPIPM to convergence (<= 10 iterations)": ModeISettings(sqp=SQPSettings(max_iter=10)),
     "ours: IPOPT, compiled stage derivatives, warm start": ModeISettings(solver=Solver.IPOPT),
     COLD: ModeISettings(compiled=False, solver=Solver.IPOPT,

@@ -28,6 +28,7 @@ import numpy as np
 from controller.feasibility import Certificate
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy
+from controller.sqp import QPMode
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings, SwitchReason
 from uvms import load_params, load_scene
 from uvms.params import UVMSParams
@@ -141,6 +142,8 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-certified-release-at-rest": lambda s: replace(s, certified_release=True, separation_speed=0.0),
     "switching-screens": lambda s: replace(s, minimum_violation=False, certificate_margin=SCREEN_MARGIN,
                                            certified_release=True),  # the screens decide both ways
+    "switching-speed-abs": lambda s: replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp,
+                                                                              qp_mode=QPMode.SPEED_ABS))),
     "switching-soft-tip": lambda s: replace(s, mode2=replace(s.mode2, ee_speed_weight=SOFT_TIP_WEIGHT)),
     "switching-warm": lambda s: replace(paper(s), certificate_warm_start=True),
     "switching-warm-margin": lambda s: replace(paper(s), certificate_warm_start=True,
