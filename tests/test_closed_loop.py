@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from controller.switching import SwitchReason
-from uvms import load_params
+from uvms import load_params, load_scene
 from validation.cli import main
 from validation.closed_loop import Outcome, run
 from validation.mismatch import DEFAULT, NONE, draw, parse
@@ -26,11 +26,48 @@ def test_scenarios_are_listed_one_line_each(capsys) -> None:
 @pytest.mark.parametrize("argv", [["run", "no-such-scenario"], ["run", "avoid-wall", "--set", "speed"],
                                   ["run", "avoid-wall", "--set", "sped=1"],
                                   ["run", "avoid-wall", "--set", "speed=fast"],
-                                  ["run", "avoid-wall", "--out", "/proc/forbidden/out"]])
+                                  ["run", "avoid-wall", "--out", "/proc/forbidden/out"],
+                                  ["run", "avoid-wall", "--latency", "fast"],
+                                  ["campaign", "--latency", "-0.1", "--out", "/tmp/uvms-never-written"]])
 def test_bad_input_is_one_line_naming_what_is_allowed(argv, capsys) -> None:
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("uvms: error:") and "allowed" in err and "\n" not in err
+
+
+def test_a_computation_delay_holds_the_previous_input(tmp_path, monkeypatch) -> None:
+    """latency 0.05 s with the braking controller (0.1 s periods) on wall-headon: every input the
+    plant receives is logged (Plant.step), and the oracle is the braking policy itself, evaluated
+    on the plant's own state at each sample time. The first period gets u_0 throughout (the run
+    starts with the first plan ready); in every later period k the plant gets u_k-1 for the first
+    0.05 s and u_k (computed from the state at t_k) for the rest. Exact equality: the same
+    function of the same state, and the plant clips nothing here (within the input bounds)."""
+    from controller.model import UVMSModel
+    from controller.rollouts import BrakingPolicy
+    from uvms_mj.plant import Plant
+
+    calls, step = [], Plant.step
+
+    def logged(self, u, duration):
+        calls.append((self.t, self.state(), np.array(u, float), duration))
+        return step(self, u, duration)
+
+    monkeypatch.setattr(Plant, "step", logged)
+    sc = replace(get("wall-headon"), duration=0.5, failed_thrusters=(), current=(0.0, 0.0, 0.0))
+    s = run(sc, controller="braking", mismatch=NONE, latency="0.05", out=tmp_path)
+    assert s["latency"] == "0.05" and [st["t"] for st in s["steps"]] == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4])
+    params = load_params()
+    braking = BrakingPolicy(UVMSModel(params, load_scene().water))
+    h0 = calls[0][1]
+    samples = [c for c in calls if any(abs(c[0] - st["t"]) < 1e-9 for st in s["steps"])]
+    commanded = [braking(c[1], h0[6:6 + params.n_joints], np.zeros(3)) for c in samples]
+    assert [round(c[3], 6) for c in calls] == [0.1] + [0.05] * 8
+    np.testing.assert_array_equal(calls[0][2], commanded[0])
+    for k in range(1, 5):
+        first, second = calls[2 * k - 1], calls[2 * k]
+        assert first[0] == pytest.approx(0.1 * k) and second[0] == pytest.approx(0.1 * k + 0.05)
+        np.testing.assert_array_equal(first[2], commanded[k - 1])
+        np.testing.assert_array_equal(second[2], commanded[k])
 
 
 def test_overrides_parse_numbers_and_tuples() -> None:

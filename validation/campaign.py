@@ -19,7 +19,7 @@ from validation.scenarios import Scenario
 FIELDS = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
           "ee_peak_contact_force", "link_contact_impulse", "max_total_thrust_along_wall_normal",
           "final_task_error", "fallbacks", "switches", "wall_clock_s", "step_p95_I_ms", "step_p95_II_ms",
-          "step_p95_III_ms", "reason")
+          "step_p95_III_ms", "latency", "reason")
 MODES = ("I", "II", "III")
 
 
@@ -29,14 +29,15 @@ class Job:
     controller: str
     mismatch: str
     seed: int
+    latency: str = "none"
 
 
 def run_job(job: Job) -> dict:
     """One run's row of the results table; exceptions become the row's verdict."""
-    row = {"scenario": job.scenario.name, "controller": job.controller, "seed": job.seed}
+    row = {"scenario": job.scenario.name, "controller": job.controller, "seed": job.seed, "latency": job.latency}
     try:
         from validation.closed_loop import run
-        s = run(job.scenario, controller=job.controller, mismatch=job.mismatch, seed=job.seed)
+        s = run(job.scenario, controller=job.controller, mismatch=job.mismatch, seed=job.seed, latency=job.latency)
         row.update({k: s[k] for k in FIELDS if k in s and k not in row})
         row["modes"] = " > ".join(s["modes"])
         row.update({f"step_p95_{m}_ms": 1e3 * s["solve_time"][m]["p95_s"] for m in MODES if m in s["solve_time"]})
@@ -46,14 +47,18 @@ def run_job(job: Job) -> dict:
 
 
 def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers: int, out: Path,
-             mismatch: str = "", seeds: int = 1, first_seed: int = 0) -> list[dict]:
+             mismatch: str = "", seeds: int = 1, first_seed: int = 0, latency: str = "none") -> list[dict]:
     """Run every scenario with every controller and every seed first_seed..first_seed+seeds-1 of the
-    mismatch (the same draws for every controller); write out/results.csv and out/results.md."""
+    mismatch (the same draws for every controller), with the computation delay `latency`
+    (validation.closed_loop.parse_latency); write out/results.csv and out/results.md."""
+    from validation.closed_loop import parse_latency
+
+    parse_latency(latency)  # a bad spec fails here, in one line, not in every run
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise ValueError(f"output path {out}: {e.strerror}; allowed: a writable folder") from None
-    jobs = [Job(s, c, mismatch, seed) for s in scenarios for seed in range(first_seed, first_seed + seeds)
+    jobs = [Job(s, c, mismatch, seed, latency) for s in scenarios for seed in range(first_seed, first_seed + seeds)
             for c in controllers]
     rows = []
     ctx = multiprocessing.get_context("spawn")
@@ -79,7 +84,10 @@ def _fmt(v) -> str:
 def markdown(rows: list[dict]) -> str:
     cols = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
             "ee_peak_contact_force", "link_contact_impulse", "fallbacks", "switches")
-    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    delays = sorted({str(r.get("latency", "none")) for r in rows} - {"none"})
+    lines = [f"Computation delay: {', '.join(delays)} (validation.closed_loop: the plant does not wait for the "
+             "controller).", ""] if delays else []
+    lines += ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     lines += ["| " + " | ".join(_fmt(r.get(c, "")) for c in cols) + " |" for r in rows]
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
     families = list(dict.fromkeys(r["scenario"] for r in rows))

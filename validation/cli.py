@@ -2,11 +2,11 @@
 
   uvms scenarios                                   list the scenarios, one line each
   uvms run NAME [--set key=value ...] [--mismatch M] [--seed N] [--controller C] [--out DIR]
-               [--video FILE] [--record FILE] [--plots DIR]
+               [--video FILE] [--record FILE] [--plots DIR] [--latency L]
                                                    run one in closed loop against MuJoCo
   uvms view FILE.rrd                               open a recording in the Rerun viewer
   uvms campaign [--scenarios A,B] [--controllers C,D] [--mismatch M] [--seeds N] [--first-seed K]
-               [--workers K] [--out DIR]
+               [--workers K] [--out DIR] [--latency L]
                                                    run many, with a progress bar and a results table
 """
 
@@ -106,6 +106,10 @@ def main(argv: list[str] | None = None) -> int:
     camp.add_argument("--mismatch", default="default", help='as for run: "default", "none" or terms')
     camp.add_argument("--seeds", type=int, default=1, help="mismatch draws per scenario (seeds K..K+N-1)")
     camp.add_argument("--first-seed", type=int, default=0, metavar="K", help="the first seed (default 0)")
+    for parser in (run, camp):
+        parser.add_argument("--latency", default="none",
+                            help='computation delay: "none" (the plant waits for the controller; default), '
+                                 '"measured" (each step\'s own wall-clock time on this machine) or seconds')
     args = ap.parse_args(argv)
     try:
         if args.command == "scenarios":
@@ -125,14 +129,14 @@ def main(argv: list[str] | None = None) -> int:
             overrides = _overrides(args.set)
             scenarios = [get(n).with_overrides(overrides) for n in args.scenarios.split(",") if n]
             rows = campaign(scenarios, controllers, args.workers, args.out, _mismatch(args.mismatch), args.seeds,
-                            args.first_seed)
+                            args.first_seed, args.latency)
             print(Path(args.out / "results.md").read_text())
             return 0 if all(r.get("verdict") != "error" for r in rows) else 1
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
         from validation.closed_loop import run as run_scenario  # heavy imports only when running
         summary = run_scenario(scenario, out=args.out, video=args.video, record=args.record, plots=args.plots,
-                               controller=args.controller,
-                               mismatch=_mismatch(args.mismatch), seed=args.seed)
+                               controller=args.controller, mismatch=_mismatch(args.mismatch), seed=args.seed,
+                               latency=args.latency)
     except ValueError as e:
         print(f"uvms: error: {e}", file=sys.stderr)
         return 2

@@ -5,6 +5,14 @@ the input held (zero-order) over MuJoCo's physics steps and the state measured f
 controller knows the scene's current at each step and is told of thruster failures when they happen;
 nothing else about the plant (its fluid model, contact, joint friction) is shared.
 
+Computation delay (`latency`, off by default): by default the plant waits for the controller, so a
+step that takes 2 s to compute costs nothing. With a latency the step's input reaches the thrusters
+that long after its state was sampled; the previous input acts meanwhile, and a step that takes
+longer than its period delays the next sample until it is done (one computation at a time). The
+first step's input acts from t = 0 (the run starts when the controller's first plan is ready).
+"measured" uses each step's own wall-clock time on this machine (so outcomes depend on the machine
+and its load); a number of seconds is the same for every step (deterministic).
+
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
 tip, and only the tip, touch. A stowed arm that crashes into the wall before the hull does spares
 the hull but is still a collision ("arm contact"), not a success.
@@ -63,6 +71,33 @@ def wall_x() -> float:
     """x [m] of the default scene's wall (read from the scene file: numbers live there once)."""
     return float(next(p for p in load_scene().planes if p.name == "wall").point[0])
 VIDEO_FPS = 25
+MEASURED = "measured"
+
+
+def _pieces(duration: float, ts: float, longest: float) -> list[float]:
+    """`duration` [s] in near-equal pieces, each a multiple of the physics timestep ts and at most
+    `longest` (a long delay keeps the telemetry's and the video's rate); [] below ts / 2."""
+    steps = round(duration / ts)
+    if steps < 1:
+        return []
+    bounds = np.linspace(0, steps, int(np.ceil(duration / longest - 1e-9)) + 1).round().astype(int)
+    return [int(n) * ts for n in np.diff(bounds)]
+
+
+def parse_latency(spec: str) -> float | None:
+    """The computation delay from its spec: "none" (0.0), "measured" (None: each step's own
+    wall-clock time), or a number of seconds >= 0."""
+    if spec == "none":
+        return 0.0
+    if spec == MEASURED:
+        return None
+    try:
+        value = float(spec)
+    except ValueError:
+        value = -1.0
+    if not (0.0 <= value < np.inf):
+        raise ValueError(f"latency {spec!r}; allowed: none, {MEASURED}, or a number of seconds >= 0")
+    return value
 
 
 def initial_state(params, sc: Scenario) -> tuple[np.ndarray, np.ndarray]:
@@ -178,10 +213,11 @@ def switches(reasons: Sequence[SwitchReason | None]) -> str:
 def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
         plots: Path | None = None,
         settings: SwitchingSettings | None = None, controller: str = "switching",
-        mismatch: str = mismatches.DEFAULT, seed: int = 0) -> dict:
+        mismatch: str = mismatches.DEFAULT, seed: int = 0, latency: str = "none") -> dict:
     """Run one scenario; returns the summary (also written to out/summary.json when out is given).
     The plant's parameters differ from the controller's by `mismatch` drawn with `seed`
-    (validation.mismatch; "" for none).
+    (validation.mismatch; "" for none). `latency`: the computation delay (parse_latency; the
+    module's docstring).
 
     `controller`: "switching" (ours), "mode1-only" (the same NMPC without switching: Mode I, with its
     braking fallback when a solve fails), "braking" (maximum thruster braking with attitude hold,
@@ -190,6 +226,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     if controller not in CONTROLLERS:
         raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
     settings = CONTROLLERS[controller](settings or SwitchingSettings())
+    fixed_delay = parse_latency(latency)
     for path in (out, video.parent if video else None, record.parent if record else None, plots):
         if path is not None:
             try:
@@ -219,7 +256,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
                                                   "tip_force")}
     tip = plant.geom_names.index(TIP_GEOM) if TIP_GEOM in plant.geom_names else None
     link_geoms = [i for i in range(len(plant.geom_names)) if i not in hull_geoms and i != tip]
-    next_frame, wall_clock = 0.0, time.perf_counter()
+    next_frame, wall_clock, u_prev, chunk = 0.0, time.perf_counter(), None, settings.mode1.dt
     try:
         while plant.t < sc.duration - 1e-9:
             t = plant.t
@@ -235,37 +272,45 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
             else:
                 u, info = ctl.step(plant.state(), t)
                 dt = max(ts, round(info.dt / ts) * ts)
-            report = plant.step(u, dt)
-            if recording is not None:
-                recording.log(plant.t, report, info, u)
-            min_dist = np.minimum(min_dist, report.distances)
-            telemetry["t"].append(t)
-            telemetry["u"].append(report.u_applied)
-            telemetry["h"].append(report.h)
-            telemetry["hull_distance"].append(float(report.distances[hull_geoms, wall].min()))
-            telemetry["link_distance"].append(float(report.distances[link_geoms, wall].min()) if link_geoms else np.nan)
-            telemetry["tip_distance"].append(float(report.distances[tip, wall]) if tip is not None else np.nan)
-            telemetry["tip_force"].append(max((c.peak_normal_force for c in report.contacts if c.geom == TIP_GEOM),
-                                              default=0.0))
-            for c in report.contacts:
-                if c.body == HULL:
-                    hull_impulse += float(np.linalg.norm(c.impulse))
-                    hull_peak = max(hull_peak, c.peak_normal_force)
-                elif c.geom == TIP_GEOM:
-                    ee_peak = max(ee_peak, c.peak_normal_force)
-                else:
-                    link_impulse += float(np.linalg.norm(c.impulse))
-            steps.append({"t": t, "dt": dt, "mode": info.mode.value, "status": info.status.value,
+            computed = info.solve_time if info is not None else 0.0
+            delay = 0.0 if u_prev is None else round((computed if fixed_delay is None else fixed_delay) / ts) * ts
+            segments = [(u_prev, delay), (u, dt - delay)] if delay > 0 else [(u, dt)]
+            pieces = [(u_seg, piece) for u_seg, duration in segments for piece in _pieces(duration, ts, chunk)]
+            for u_seg, duration in pieces:
+                t_seg = plant.t
+                report = plant.step(u_seg, duration)
+                if recording is not None:
+                    recording.log(plant.t, report, info, u_seg)
+                min_dist = np.minimum(min_dist, report.distances)
+                telemetry["t"].append(t_seg)
+                telemetry["u"].append(report.u_applied)
+                telemetry["h"].append(report.h)
+                telemetry["hull_distance"].append(float(report.distances[hull_geoms, wall].min()))
+                telemetry["link_distance"].append(float(report.distances[link_geoms, wall].min())
+                                                  if link_geoms else np.nan)
+                telemetry["tip_distance"].append(float(report.distances[tip, wall]) if tip is not None else np.nan)
+                telemetry["tip_force"].append(max((c.peak_normal_force for c in report.contacts
+                                                   if c.geom == TIP_GEOM), default=0.0))
+                for c in report.contacts:
+                    if c.body == HULL:
+                        hull_impulse += float(np.linalg.norm(c.impulse))
+                        hull_peak = max(hull_peak, c.peak_normal_force)
+                    elif c.geom == TIP_GEOM:
+                        ee_peak = max(ee_peak, c.peak_normal_force)
+                    else:
+                        link_impulse += float(np.linalg.norm(c.impulse))
+                while recorder is not None and next_frame <= plant.t + 1e-9:
+                    recorder.capture()
+                    next_frame += 1.0 / VIDEO_FPS
+            u_prev, period = u, max(dt, delay)
+            steps.append({"t": t, "dt": period, "delay": delay, "mode": info.mode.value, "status": info.status.value,
                           "fallback": info.fallback.value, "solve_time": info.solve_time, "ocp_time": info.ocp_time,
                           "iterations": info.iterations, "horizon": info.horizon,
                           "certificate": certificate_row(info.certificate),
                           "switch": info.switch.value if info.switch else None} if info else
-                         {"t": t, "dt": dt, "mode": "braking", "status": "-", "fallback": Fallback.NONE.value,
-                          "solve_time": 0.0, "ocp_time": 0.0, "iterations": 0, "horizon": 0, "certificate": None,
-                          "switch": None})
-            while recorder is not None and next_frame <= plant.t + 1e-9:
-                recorder.capture()
-                next_frame += 1.0 / VIDEO_FPS
+                         {"t": t, "dt": period, "delay": delay, "mode": "braking", "status": "-",
+                          "fallback": Fallback.NONE.value, "solve_time": 0.0, "ocp_time": 0.0, "iterations": 0,
+                          "horizon": 0, "certificate": None, "switch": None})
     finally:
         if recorder is not None:
             recorder.close()
@@ -286,7 +331,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     outcome, reason = judge(hull_impulse, hull_peak, link_impulse, ee_peak)
     summary = {
         "scenario": asdict(sc), "controller": controller,
-        "mismatch": {"spec": mismatch, "seed": seed, "values": drawn}, "verdict": outcome.value, "reason": reason,
+        "mismatch": {"spec": mismatch, "seed": seed, "values": drawn}, "latency": latency,
+        "verdict": outcome.value, "reason": reason,
         "modes": [m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m], "timeline": timeline,
         "min_distance": {g: {p.name: float(min_dist[i, j]) for j, p in enumerate(scene.planes)}
                          for i, g in enumerate(plant.geom_names)},
