@@ -88,9 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--record", type=Path, help="write a Rerun recording (.rrd)")
     run.add_argument("--plots", type=Path, help="folder for telemetry figures (PNG)")
     run.add_argument("--controller", default="switching", help="switching (default), mode1-only, braking, or a "
-                     "variant of ours: switching-search, switching-warm, switching-warm-margin, "
-                     "switching-deadline, switching-contact-margin (validation.closed_loop.run says what each "
-                     "changes)")
+                     "variant of ours (validation.closed_loop.CONTROLLERS; an unknown name lists them all)")
     for parser in (run,):
         parser.add_argument("--mismatch", default="default",
                             help='plant-vs-controller mismatch: "default", "none" or terms like added_mass*U(0.8,1.2)')
