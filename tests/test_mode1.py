@@ -45,8 +45,8 @@ def test_sqp_reaches_the_interior_point_optimum(params, scene) -> None:
     a KKT point of the NLP. Tolerances: states within 1e-5 (m, rad, m/s), inputs within 1e-4 of
     their 40 N scale, cost within 1e-8 relative; the SQP stops at steps below 1e-7 and converges
     linearly (Gauss-Newton), so its iterate is this close, not closer. The QPs are HPIPM's ROBUST
-    ones (residuals to 1e-6): the real-time default's SPEED_ABS steps are accurate to about its
-    barrier tolerance, and its fixed point's cost is 1.6e-8 off."""
+    ones (residuals to 1e-6, the default, pinned here): the opt-in SPEED_ABS steps are accurate to
+    about its barrier tolerance only, and with them the fixed point's cost is 1.6e-8 off."""
     model = UVMSModel(params, scene.water)
     h, ref = approach(params)
     ipopt = ModeIOCP(model, scene.planes, ModeISettings(tol=1e-9, solver=Solver.IPOPT)).solve(h, ref)
