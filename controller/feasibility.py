@@ -59,6 +59,7 @@ class Verdict(Enum):
     FEASIBLE = "feasible"
     INFEASIBLE = "infeasible"
     UNDECIDED = "not certified by the screens (the minimum-violation problem was not asked)"
+    PENDING = "not certified by the screens; the minimum-violation problem runs in the background"
 
 
 class Method(Enum):
@@ -81,6 +82,7 @@ class Certificate:
     solve_time: float  # s
     solution: OCPSolution | None  # the minimum-violation solution, or the line-search SQP's certified plan
     rollout: np.ndarray  # (N+1, ns) the braking rollout's states
+    age: float = 0.0  # s: how much older the state the minimum violation judged is than this step's (background)
 
 
 class FeasibilityTest:
@@ -179,6 +181,11 @@ class FeasibilityTest:
             sol = self.warm.solve(h0, h_ref, current, guess=self.warm.guess_from_rollout(*candidate))
         else:
             sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
+        return self.judge(sol, margin, time.perf_counter() - t0, hs)
+
+    def judge(self, sol: OCPSolution, rollout_clearance: float, seconds: float, hs: np.ndarray) -> Certificate:
+        """The verdict of a minimum-violation solution: F empty when its slack sum exceeds the
+        tolerance, or when IPOPT could not use its solve (violation inf)."""
         violation = float(np.sum(sol.slack)) if sol.status.usable else np.inf
         verdict = Verdict.FEASIBLE if violation <= self.tolerance else Verdict.INFEASIBLE
-        return Certificate(verdict, Method.MINIMUM_VIOLATION, violation, margin, time.perf_counter() - t0, sol, hs)
+        return Certificate(verdict, Method.MINIMUM_VIOLATION, violation, rollout_clearance, seconds, sol, hs)

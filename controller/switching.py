@@ -36,6 +36,14 @@ Mode I's step, at the price of switching as soon as the real-time plan leans on 
 ("switching-screens": with `certificate_margin` 5 mm below Mode I's, for the re-simulation's few
 millimetres, and the certified release, so that the screens decide both ways).
 
+Optional (`background_certificate`, off by default; not in the paper): the minimum-violation
+problem runs on a second thread (controller.background_certificate) while Mode I goes on with its
+real-time plan (Verdict.PENDING); its verdict, on the state it started from, decides at the first
+step after it is done. Meant for real time (validation.closed_loop's `--latency measured`), where
+the synchronous certificate's 0.5-2.5 s would otherwise hold the previous input; when the plant
+waits for the controller the verdict comes after as many periods as the job's wall time spans, so
+runs are not reproducible to the step.
+
 Optional (`deploy_deadline`, off by default; not in the paper): also leave Mode I, with F not
 found empty, when the certificate's braking rollout brings a body that Mode II protects within the
 margin no later than one control period after the time Mode II's deploy rollout needs to put the
@@ -69,6 +77,7 @@ from enum import Enum
 
 import numpy as np
 
+from controller.background_certificate import BackgroundCertificate
 from controller.feasibility import Certificate, FeasibilityTest, Method, Verdict
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
@@ -112,6 +121,7 @@ class SwitchingSettings:
     deploy_deadline: bool = False  # also switch when waiting would leave Mode II no time to deploy the arm (_deadline)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     minimum_violation: bool = True  # False: the certificate's screens alone decide (F taken as empty if none certifies)
+    background_certificate: bool = False  # the minimum-violation problem on a second thread (module doc)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0)
     certified_release: bool = False  # ... and only once Mode I's certificate screens find a point of F (module doc)
@@ -163,6 +173,8 @@ class SwitchingNMPC:
             settings.mode1, distance_margin=settings.certificate_margin)
         self.feasibility = FeasibilityTest(model, planes, certified, settings.feasibility_tolerance,
                                            settings.certificate_search, settings.certificate_warm_start)
+        self._background = BackgroundCertificate(self.feasibility) if (
+            settings.background_certificate and settings.switching and settings.minimum_violation) else None
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))
         self._mode2: dict[int, ModeIIOCP] = {}
         self._mode3: dict[int, ModeIIIOCP] = {}
@@ -299,9 +311,12 @@ class SwitchingNMPC:
             fresh["h"] = self._resimulate(h, sol.u, s.dt)
             return fresh["h"], sol.u
 
+        background = self._background is not None and not release
         cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now,
-                                minimum_violation=self.settings.minimum_violation and not release) \
+                                minimum_violation=self.settings.minimum_violation and not release and not background) \
             if self.settings.switching else None
+        if background:
+            cert = self._background_verdict(h, ref, t, cert)
         self._release_probe = cert if release else None
         if release and cert.verdict is not Verdict.FEASIBLE:
             return None
@@ -312,12 +327,14 @@ class SwitchingNMPC:
         elif cert is not None and not release and self._deadline(h, cert):
             self._switch = SwitchReason.DEPLOY_DEADLINE
         if self._switch is not None:
+            if self._background is not None:
+                self._background.discard()
             self.contact = self._closest_plane(cert.rollout)
             self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
             return self._step_mode2(h, cert)
         self._reported_mode = Mode.I
         if cert is not None and cert.method in (Method.GLOBALIZED_SQP, Method.MINIMUM_VIOLATION) \
-                and cert.solution is not None:
+                and cert.solution is not None and cert.age == 0:
             guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)  # a better start than the fresh one
             fresh.clear()
         sol = fresh["sol"] if "sol" in fresh else ocp.solve(h, ref, self.current, previous=previous, guess=guess)
@@ -332,6 +349,24 @@ class SwitchingNMPC:
                     previous.h, previous.u, None, cert)
         hs, us = self.feasibility.braking_rollout(h, self.current)
         return us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, None, cert
+
+    def _background_verdict(self, h: np.ndarray, ref: np.ndarray, t: float, cert: Certificate) -> Certificate:
+        """With `background_certificate`: a screen's point of F stands (a background verdict, now
+        stale, is dropped); else the finished background verdict when there is one (on an older
+        state; with this step's braking rollout, which picks the contact plane), and a new job from
+        this state when that verdict does not end Mode I and none runs; else PENDING."""
+        bg = self._background
+        if cert.verdict is Verdict.FEASIBLE:
+            bg.discard()
+            return cert
+        done = bg.take(t)
+        if done is not None:
+            done = replace(done, rollout=cert.rollout, rollout_clearance=cert.rollout_clearance)
+            if done.verdict is Verdict.INFEASIBLE:
+                return done
+        if not bg.busy:
+            bg.submit(h, ref, self.current, *self.feasibility.braking_rollout(h, self.current), t)
+        return done if done is not None else replace(cert, verdict=Verdict.PENDING, method=Method.MINIMUM_VIOLATION)
 
     def _short_of_contact(self, h: np.ndarray) -> bool:
         """With `contact_tolerance`: whether the tip is further than that from the contact plane

@@ -3,6 +3,7 @@ closed loop on the Kane model with a penalty tip contact (validation.kane_closed
 
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -157,3 +158,40 @@ def test_mode_three_lets_go_only_when_mode_one_certifies_F(params, scene) -> Non
     ctl, on = holding(replace(stuck, certified_release=False))
     info = ctl.step(on, 0.0)[1]
     assert info.mode is Mode.II and info.switch is not None and info.certificate.verdict is Verdict.INFEASIBLE
+
+
+@pytest.mark.slow
+def test_background_certificate_switches_on_the_synchronous_verdict_later(params, scene) -> None:
+    """SwitchingSettings(background_certificate=True) (opt-in), on an unavoidable oblique approach
+    (closest body 1 cm off the wall, 0.86 m/s at 30 deg: 1.1 times F's threshold speed,
+    bench/results/certificate_accuracy.md). The first step's screens find no point of F, so it stays
+    in Mode I with a PENDING certificate while the minimum-violation problem runs on the worker
+    thread. Once that is done, a step 0.3 s later (same state, so the oracle is exact) switches to
+    Mode II on the finished verdict. Oracle: the synchronous certificate on the same state (the same
+    problem from the same braking-rollout start), whose verdict and minimum violation the background
+    one must equal to the bit (same arithmetic on another thread), aged by the 0.3 s."""
+    from controller.feasibility import FeasibilityTest, Method, Verdict
+    from controller.switching import SwitchReason
+    from validation.certificate_accuracy import approach
+
+    model = UVMSModel(params, scene.water)
+    oracle = FeasibilityTest(model, scene.planes)
+    h, ref = approach(oracle, 0.01, 30.0, 1.1 * 0.783)
+    expected = oracle(h, ref)
+    assert expected.method is Method.MINIMUM_VIOLATION and expected.verdict is Verdict.INFEASIBLE
+    assert np.isfinite(expected.violation)  # a positive minimum, not an IPOPT failure
+
+    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(background_certificate=True, prebuild=False))
+    u, info = ctl.step(h, 0.0)
+    assert info.mode is Mode.I and info.switch is None and info.certificate.verdict is Verdict.PENDING
+    assert ctl._background.busy  # the step did not wait for the problem (about 1 s)
+    for _ in range(600):  # the worker's solve: about 1 s alone, allow 60 s on a loaded machine
+        if not ctl._background.busy:
+            break
+        time.sleep(0.1)
+    u, info = ctl.step(h, 0.3)
+    c = info.certificate
+    assert info.mode is Mode.II and info.switch is SwitchReason.F_EMPTY
+    assert c.verdict is Verdict.INFEASIBLE and c.violation == expected.violation and c.age == pytest.approx(0.3)
+    lo, hi = params.input_bounds()
+    assert np.all(np.isfinite(u)) and np.all(u >= lo) and np.all(u <= hi)

@@ -11,7 +11,10 @@ that long after its state was sampled; the previous input acts meanwhile, and a 
 longer than its period delays the next sample until it is done (one computation at a time). The
 first step's input acts from t = 0 (the run starts when the controller's first plan is ready).
 "measured" uses each step's own wall-clock time on this machine (so outcomes depend on the machine
-and its load); a number of seconds is the same for every step (deterministic).
+and its load), and the loop then runs no faster than real time (it waits before a step whose
+sample time is still ahead of the wall clock), so that work the controller does in the background
+(`switching-background`) takes as long in simulated time as it does in fact; a number of seconds
+is the same for every step (deterministic).
 
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
 tip, and only the tip, touch. A stowed arm that crashes into the wall before the hull does spares
@@ -177,6 +180,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-certified-release-at-rest": lambda s: replace(s, certified_release=True, separation_speed=0.0),
     "switching-screens": lambda s: replace(s, minimum_violation=False, certificate_margin=SCREEN_MARGIN,
                                            certified_release=True),  # the screens decide both ways
+    "switching-background": lambda s: replace(s, background_certificate=True),
     "switching-speed-abs": lambda s: replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp,
                                                                               qp_mode=QPMode.SPEED_ABS))),
     "switching-soft-tip": lambda s: replace(s, mode2=replace(s.mode2, ee_speed_weight=SOFT_TIP_WEIGHT)),
@@ -199,7 +203,7 @@ def certificate_row(c: Certificate | None) -> dict | None:
     if c is None:
         return None
     return {"verdict": c.verdict.value, "method": c.method.value,
-            "violation": c.violation if np.isfinite(c.violation) else None, "seconds": c.solve_time}
+            "violation": c.violation if np.isfinite(c.violation) else None, "seconds": c.solve_time, "age": c.age}
 
 
 def switches(reasons: Sequence[SwitchReason | None]) -> str:
@@ -257,6 +261,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     tip = plant.geom_names.index(TIP_GEOM) if TIP_GEOM in plant.geom_names else None
     link_geoms = [i for i in range(len(plant.geom_names)) if i not in hull_geoms and i != tip]
     next_frame, wall_clock, u_prev, chunk = 0.0, time.perf_counter(), None, settings.mode1.dt
+    paced_from = None  # wall-clock time [s] of simulated t = 0 (measured latency: when the first plan is ready)
     try:
         while plant.t < sc.duration - 1e-9:
             t = plant.t
@@ -270,7 +275,10 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
                 u, dt = braking(h, h0[6:6 + params.n_joints], ctl.current), settings.mode1.dt
                 info = None
             else:
+                if fixed_delay is None and paced_from is not None:  # measured: no faster than real time
+                    time.sleep(max(0.0, t - (time.perf_counter() - paced_from)))
                 u, info = ctl.step(plant.state(), t)
+                paced_from = time.perf_counter() if paced_from is None else paced_from
                 dt = max(ts, round(info.dt / ts) * ts)
             computed = info.solve_time if info is not None else 0.0
             delay = 0.0 if u_prev is None else round((computed if fixed_delay is None else fixed_delay) / ts) * ts

@@ -1,0 +1,71 @@
+"""The certificate's minimum-violation problem on a second thread, so that Mode I's steps stay
+short (opt-in: SwitchingSettings.background_certificate; not in the paper).
+
+The synchronous certificate (controller.feasibility) blocks the step for 0.5-2.5 s whenever its
+screens fail, and the plant does not wait in reality: with that delay the previous input acts
+meanwhile (validation.closed_loop's `--latency measured`). Here the step only runs the screens;
+when they fail it starts the minimum-violation problem from the measured state on a worker thread
+(one at a time; IPOPT runs without Python's global lock, on the second core) and goes on with
+Mode I's real-time plan (Verdict.PENDING). A later step takes the finished verdict: it judges the
+state the job started from, `Certificate.age` seconds older than the step's. A screen that
+certifies F at a later step makes a running job's verdict stale, and it is dropped; so is one that
+finishes after the controller left Mode I.
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import replace
+
+import numpy as np
+
+from controller.feasibility import Certificate, FeasibilityTest
+
+
+class BackgroundCertificate:
+    """One worker thread that solves `test`'s minimum-violation problem. Only the worker calls
+    the problem's solver; the caller's thread builds the start (the problem's clearance function)."""
+
+    def __init__(self, test: FeasibilityTest):
+        self.test = test
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="certificate")
+        self._job: Future | None = None
+        self._started = 0.0  # s, the state time of the job
+        self._stale = False
+
+    @property
+    def busy(self) -> bool:
+        return self._job is not None and not self._job.done()
+
+    def submit(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray, hs: np.ndarray, us: np.ndarray,
+               t: float) -> None:
+        """Start the problem for state h0 at time t [s] from the braking rollout (hs (N+1, ns), us
+        (N, nu)), as the synchronous certificate does. Refused while a job runs (one at a time)."""
+        if self.busy:
+            raise RuntimeError("BackgroundCertificate.submit: a job is running; allowed: one at a time")
+        guess = self.test.problem.guess_from_rollout(hs, us)
+        clearance = self.test.min_clearance(hs) - self.test.settings.distance_margin
+        args = (np.array(h0, float), np.array(h_ref, float), np.array(current, float), guess, clearance, hs.copy())
+        self._job, self._started, self._stale = self._pool.submit(self._solve, *args), t, False
+
+    def _solve(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray, guess: np.ndarray, clearance: float,
+               hs: np.ndarray) -> Certificate:
+        t0 = time.perf_counter()
+        sol = self.test.problem.solve(h0, h_ref, current, guess=guess)
+        return self.test.judge(sol, clearance, time.perf_counter() - t0, hs)
+
+    def take(self, t: float) -> Certificate | None:
+        """The finished job's certificate, once, aged to time t [s]; None while it runs, when there
+        is none, or when it went stale."""
+        if self._job is None or not self._job.done():
+            return None
+        job, self._job = self._job, None
+        cert = job.result()
+        return None if self._stale else replace(cert, age=t - self._started)
+
+    def discard(self) -> None:
+        """Drop the verdict of the running or finished job (the state it judges no longer matters)."""
+        self._stale = True
+        if self._job is not None and self._job.done():
+            self._job = None
