@@ -41,7 +41,8 @@ class SolverStatus(Enum):
 FEASIBLE_VIOLATION = 1e-5  # largest constraint violation (m, N, N m) of a usable iterate at the iteration cap
 
 _IPOPT = {"Solve_Succeeded": SolverStatus.SUCCESS, "Solved_To_Acceptable_Level": SolverStatus.SUCCESS,
-          "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER, "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE}
+          "Maximum_Iterations_Exceeded": SolverStatus.MAX_ITER, "Maximum_WallTime_Exceeded": SolverStatus.MAX_ITER,
+          "Maximum_CpuTime_Exceeded": SolverStatus.MAX_ITER, "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE}
 
 
 def ipopt_status(stats: dict) -> SolverStatus:

@@ -3,6 +3,8 @@ is a separate issue): an approach the thrusters can stop."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -35,6 +37,25 @@ def test_compiled_stage_derivatives_give_the_expanded_solution(params, scene) ->
     np.testing.assert_allclose(sols[0].h, sols[1].h, atol=1e-6)
     np.testing.assert_allclose(sols[0].u, sols[1].u, atol=1e-6 * np.abs(sols[1].u).max())
     assert sols[0].cost == pytest.approx(sols[1].cost, rel=1e-8)
+
+
+def test_ipopt_stopped_by_its_wall_clock_limit_counts_as_its_iteration_cap(params, scene) -> None:
+    """IPOPT's wall-clock limit (max_wall_time, used by validation.closed_loop's real-time variants)
+    set to 1 ns stops it within its first iterations (here at its start). Oracle: the same solve
+    capped at that many iterations without the limit; the two iterates are the same and so is the
+    status (MAX_ITER, or FEASIBLE when the iterate satisfies the constraints), not a failure."""
+    model = UVMSModel(params, scene.water)
+    h, ref = approach(params)
+    ipopt = ModeISettings(solver=Solver.IPOPT)
+    limited = ModeIOCP(model, scene.planes, replace(ipopt, ipopt_options={"max_wall_time": 1e-9}))
+    stopped = limited.solve(h, ref)
+    assert limited.solver.stats()["return_status"] == "Maximum_WallTime_Exceeded"
+    ocp = ModeIOCP(model, scene.planes, replace(ipopt, max_iter=stopped.iterations))
+    capped = ocp.solve(h, ref)
+    assert ocp.solver.stats()["return_status"] == "Maximum_Iterations_Exceeded"
+    assert stopped.iterations < 5 and stopped.status in (SolverStatus.MAX_ITER, SolverStatus.FEASIBLE)
+    assert stopped.status is capped.status
+    np.testing.assert_array_equal(stopped.w, capped.w)
 
 
 @pytest.mark.slow

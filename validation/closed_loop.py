@@ -153,6 +153,7 @@ CONTACT_MARGIN = 0.02  # m: Modes II and III's body clearance in "switching-cont
 SOFT_TIP_WEIGHT = 4.0  # s/m: J_II's weight on the tip's speed at contact in "switching-soft-tip" (default 2)
 SCREEN_MARGIN = 0.015  # m: the clearance F's plans keep in "switching-screens" (Mode I's 2 cm less 5 mm)
 CERTIFICATE_MARGIN = 0.04  # m: the clearance F's plans keep in "switching-warm-margin" (default: Mode I's 2 cm)
+SOLVE_BUDGET = 0.07  # s: IPOPT's wall-clock limit on Modes II and III in "switching-realtime" (not reproducible)
 
 
 def paper(s: SwitchingSettings) -> SwitchingSettings:
@@ -161,6 +162,14 @@ def paper(s: SwitchingSettings) -> SwitchingSettings:
     1 step wherever the tip is."""
     return replace(s, contact_tolerance=None, mode2=replace(s.mode2, dt_nominal=0.1, dt_bounds=(0.05, 0.1),
                                                             terminal_margin=None))
+
+
+def budgeted(s: SwitchingSettings) -> SwitchingSettings:
+    """Modes II and III's IPOPT stopped after SOLVE_BUDGET of wall-clock time; its iterate is used
+    when it satisfies the constraints, else the mode's fallback (controller.switching)."""
+    budget = {"max_wall_time": SOLVE_BUDGET}
+    return replace(s, mode2=replace(s.mode2, ipopt_options={**s.mode2.ipopt_options, **budget}),
+                   mode3=replace(s.mode3, ipopt_options={**s.mode3.ipopt_options, **budget}))
 
 
 # The controllers by name: how each changes the given SwitchingSettings ("braking" does not use them).
@@ -181,6 +190,8 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-screens": lambda s: replace(s, minimum_violation=False, certificate_margin=SCREEN_MARGIN,
                                            certified_release=True),  # the screens decide both ways
     "switching-background": lambda s: replace(s, background_certificate=True),
+    "switching-realtime": lambda s: budgeted(replace(s, background_certificate=True)),
+    "switching-screens-realtime": lambda s: budgeted(CONTROLLERS["switching-screens"](s)),
     "switching-speed-abs": lambda s: replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp,
                                                                               qp_mode=QPMode.SPEED_ABS))),
     "switching-soft-tip": lambda s: replace(s, mode2=replace(s.mode2, ee_speed_weight=SOFT_TIP_WEIGHT)),
