@@ -24,11 +24,13 @@ warm-started one (the minimum-violation problem from Mode I's plan), the one wit
 line-search SQP screen (controller.feasibility says why both are off by default) and the screens
 alone at 1.5 cm of clearance ("switching-screens": no IPOPT; not certified counts as unavoidable).
 The same four certificates and both truths are also given the issue's own set: head-on approaches
-with gaps of 15 and 20 cm at the same factors of the braking rollout's threshold speed (its braking
-limit, braking_threshold: 1.3 and 1.5 m/s). The rollout's labels are not monotone in speed on
-smaller gaps or at 30 deg (at 10 cm head-on: feasible at 0.05-0.4 m/s, not at 0.45-0.55, again at
-0.6-1.05 m/s; the attitude hold and the pitch that braking induces change which body comes
-closest), so those approaches have no single braking limit and are refused.
+with gaps of 15 and 20 cm and an oblique one, 20 cm at 30 deg, at the same factors of the braking
+rollout's threshold speed (its braking limit, braking_threshold: 1.3, 1.5 and 1.9 m/s). The
+rollout's labels are not monotone in speed on most other approaches (at 10 cm head-on: feasible at
+0.05-0.4 m/s, not at 0.45-0.55, again at 0.6-1.05 m/s; the attitude hold and the pitch that braking
+induces change which body comes closest; of gaps 10-30 cm at 10-45 deg only 20 cm at 30 and 45 deg
+and 25 cm at 10-30 deg have a single limit within 2.5 m/s), so those have no braking limit and are
+refused.
 F is the OCP's, on the implicit midpoint rule at its nodes: the table also gives the smallest
 clearance of the default certificate's minimum-violation plan (when it has one) under fine RK4
 (10 substeps an interval), which shows how far the true trajectory between and at the nodes
@@ -254,7 +256,7 @@ def labelled(cs: Certificates, gap: float, angle: float, threshold: float, bank:
 
 
 def evaluate(approaches=((0.02, 0.0), (0.03, 0.0), (0.01, 30.0), (0.02, 30.0)),
-             braking_approaches=((0.15, 0.0), (0.2, 0.0))
+             braking_approaches=((0.15, 0.0), (0.2, 0.0), (0.2, 30.0))
              ) -> tuple[list[Case], list[Case], list[str]]:
     """The four certificates on each labelled case around F's threshold (`approaches`) and around
     the braking rollout's (`braking_approaches`: the issue's set), and the approaches whose F labels
