@@ -46,14 +46,15 @@ class BackgroundCertificate:
             raise RuntimeError("BackgroundCertificate.submit: a job is running; allowed: one at a time")
         guess = self.test.problem.guess_from_rollout(hs, us)
         clearance = self.test.min_clearance(hs) - self.test.settings.distance_margin
-        args = (np.array(h0, float), np.array(h_ref, float), np.array(current, float), guess, clearance, hs.copy())
+        args = (np.array(h0, float), np.array(h_ref, float), np.array(current, float), guess, clearance, hs.copy(),
+                us.copy())
         self._job, self._started, self._stale = self._pool.submit(self._solve, *args), t, False
 
     def _solve(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray, guess: np.ndarray, clearance: float,
-               hs: np.ndarray) -> Certificate:
+               hs: np.ndarray, us: np.ndarray) -> Certificate:
         t0 = time.perf_counter()
         sol = self.test.problem.solve(h0, h_ref, current, guess=guess)
-        return self.test.judge(sol, clearance, time.perf_counter() - t0, hs)
+        return self.test.judge(sol, clearance, time.perf_counter() - t0, hs, us)
 
     def take(self, t: float) -> Certificate | None:
         """The finished job's certificate, once, aged to time t [s]; None while it runs, when there

@@ -82,6 +82,7 @@ class Certificate:
     solve_time: float  # s
     solution: OCPSolution | None  # the minimum-violation solution, or the line-search SQP's certified plan
     rollout: np.ndarray  # (N+1, ns) the braking rollout's states
+    rollout_inputs: np.ndarray | None = None  # (N, nu) and its inputs
     age: float = 0.0  # s: how much older the state the minimum violation judged is than this step's (background)
 
 
@@ -163,29 +164,33 @@ class FeasibilityTest:
         t0 = time.perf_counter()
         hs, us = self.braking_rollout(h0, current)
         margin = self.min_clearance(hs) - self.settings.distance_margin
+
+        def found(method: Method, sol: OCPSolution | None = None) -> Certificate:
+            return Certificate(Verdict.FEASIBLE, method, 0.0, margin, time.perf_counter() - t0, sol, hs, us)
+
         if margin >= 0:
-            return Certificate(Verdict.FEASIBLE, Method.BRAKING_ROLLOUT, 0.0, margin, time.perf_counter() - t0, None,
-                               hs)
+            return found(Method.BRAKING_ROLLOUT)
         if plan is not None and self.plan_is_feasible(*plan):
-            return Certificate(Verdict.FEASIBLE, Method.PREVIOUS_PLAN, 0.0, margin, time.perf_counter() - t0, None,
-                               hs)
+            return found(Method.PREVIOUS_PLAN)
         candidate = fresh() if fresh is not None else None
         if candidate is not None and self.plan_is_feasible(*candidate):
-            return Certificate(Verdict.FEASIBLE, Method.MODE_I_PLAN, 0.0, margin, time.perf_counter() - t0, None, hs)
+            return found(Method.MODE_I_PLAN)
         sol = self.search_plan(h0, h_ref, plan if plan is not None else (hs, us), current)
         if sol is not None:
-            return Certificate(Verdict.FEASIBLE, Method.GLOBALIZED_SQP, 0.0, margin, time.perf_counter() - t0, sol, hs)
+            return found(Method.GLOBALIZED_SQP, sol)
         if not minimum_violation:
-            return Certificate(Verdict.UNDECIDED, Method.SCREENS, np.nan, margin, time.perf_counter() - t0, None, hs)
+            return Certificate(Verdict.UNDECIDED, Method.SCREENS, np.nan, margin, time.perf_counter() - t0, None, hs,
+                               us)
         if self.warm is not None and candidate is not None:
             sol = self.warm.solve(h0, h_ref, current, guess=self.warm.guess_from_rollout(*candidate))
         else:
             sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
-        return self.judge(sol, margin, time.perf_counter() - t0, hs)
+        return self.judge(sol, margin, time.perf_counter() - t0, hs, us)
 
-    def judge(self, sol: OCPSolution, rollout_clearance: float, seconds: float, hs: np.ndarray) -> Certificate:
+    def judge(self, sol: OCPSolution, rollout_clearance: float, seconds: float, hs: np.ndarray,
+              us: np.ndarray) -> Certificate:
         """The verdict of a minimum-violation solution: F empty when its slack sum exceeds the
-        tolerance, or when IPOPT could not use its solve (violation inf)."""
+        tolerance, or when IPOPT could not use its solve (violation inf). hs, us: the braking rollout."""
         violation = float(np.sum(sol.slack)) if sol.status.usable else np.inf
         verdict = Verdict.FEASIBLE if violation <= self.tolerance else Verdict.INFEASIBLE
-        return Certificate(verdict, Method.MINIMUM_VIOLATION, violation, rollout_clearance, seconds, sol, hs)
+        return Certificate(verdict, Method.MINIMUM_VIOLATION, violation, rollout_clearance, seconds, sol, hs, us)

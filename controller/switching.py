@@ -361,11 +361,12 @@ class SwitchingNMPC:
             return cert
         done = bg.take(t)
         if done is not None:
-            done = replace(done, rollout=cert.rollout, rollout_clearance=cert.rollout_clearance)
+            done = replace(done, rollout=cert.rollout, rollout_inputs=cert.rollout_inputs,
+                           rollout_clearance=cert.rollout_clearance)
             if done.verdict is Verdict.INFEASIBLE:
                 return done
         if not bg.busy:
-            bg.submit(h, ref, self.current, *self.feasibility.braking_rollout(h, self.current), t)
+            bg.submit(h, ref, self.current, cert.rollout, cert.rollout_inputs, t)
         return done if done is not None else replace(cert, verdict=Verdict.PENDING, method=Method.MINIMUM_VIOLATION)
 
     def _short_of_contact(self, h: np.ndarray) -> bool:
