@@ -38,16 +38,17 @@ class BackgroundCertificate:
     def busy(self) -> bool:
         return self._job is not None and not self._job.done()
 
-    def submit(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray, hs: np.ndarray, us: np.ndarray,
+    def submit(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray, screened: Certificate,
                t: float) -> None:
-        """Start the problem for state h0 at time t [s] from the braking rollout (hs (N+1, ns), us
-        (N, nu)), as the synchronous certificate does. Refused while a job runs (one at a time)."""
+        """Start the problem for state h0 at time t [s] from the braking rollout of `screened` (the
+        screens' certificate for h0), as the synchronous certificate does. Refused while a job runs
+        (one at a time)."""
         if self.busy:
             raise RuntimeError("BackgroundCertificate.submit: a job is running; allowed: one at a time")
+        hs, us = screened.rollout.copy(), screened.rollout_inputs.copy()
         guess = self.test.problem.guess_from_rollout(hs, us)
-        clearance = self.test.min_clearance(hs) - self.test.settings.distance_margin
-        args = (np.array(h0, float), np.array(h_ref, float), np.array(current, float), guess, clearance, hs.copy(),
-                us.copy())
+        args = (np.array(h0, float), np.array(h_ref, float), np.array(current, float), guess,
+                screened.rollout_clearance, hs, us)
         self._job, self._started, self._stale = self._pool.submit(self._solve, *args), t, False
 
     def _solve(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray, guess: np.ndarray, clearance: float,

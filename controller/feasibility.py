@@ -82,7 +82,7 @@ class Certificate:
     solve_time: float  # s
     solution: OCPSolution | None  # the minimum-violation solution, or the line-search SQP's certified plan
     rollout: np.ndarray  # (N+1, ns) the braking rollout's states
-    rollout_inputs: np.ndarray | None = None  # (N, nu) and its inputs
+    rollout_inputs: np.ndarray | None = None  # (N, nu) the braking rollout's inputs
     age: float = 0.0  # s: how much older the state the minimum violation judged is than this step's (background)
 
 

@@ -366,7 +366,7 @@ class SwitchingNMPC:
             if done.verdict is Verdict.INFEASIBLE:
                 return done
         if not bg.busy:
-            bg.submit(h, ref, self.current, cert.rollout, cert.rollout_inputs, t)
+            bg.submit(h, ref, self.current, cert, t)
         return done if done is not None else replace(cert, verdict=Verdict.PENDING, method=Method.MINIMUM_VIOLATION)
 
     def _short_of_contact(self, h: np.ndarray) -> bool:
