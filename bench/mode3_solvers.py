@@ -1,0 +1,155 @@
+"""Mode III's IPOPT on recorded problems: where its time goes and which solver options change it.
+
+Mode III is the slowest mode (bench/results/nmpc_modes.md): about 30 interior-point iterations of
+about 4 ms each. This benchmark replays the Mode III problems that MuJoCo closed loops actually
+posed, so that a change of solver or options is measured offline, side by side, on the same set.
+
+  python bench/mode3_solvers.py --record 2   # the problems of the default controller on wall-headon,
+                                             # wall-oblique and arm-deployed, seeds 0-1 (about 2 min)
+  python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 10 min)
+
+--record writes out/mode3_problems.npz (not committed, 1-2 MB; the closed loops are deterministic, so
+recording again gives the same problems on the same machine): per problem, the measured state, the primal guess
+(Algorithm 2's for a cold start, else the shifted recomputed plan), the multipliers of a warm start
+(NaN for a cold one), the input bounds (failed thrusters) and the contact plane. The evaluation
+writes bench/results/mode3_solvers.md: per option set, usable solves, iterations, solve time
+(median, p95), ms per iteration, and the cost against the default's on the problems both solve.
+Solve times are wall clock on a shared machine; the iterations are what the options change.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+from tqdm import tqdm
+
+from controller.mode3 import ModeIIIOCP, ModeIIISettings
+from controller.model import UVMSModel
+from uvms import load_params, load_scene
+
+OUT = Path(__file__).parent / "results"
+PROBLEMS = Path(__file__).parent.parent / "out" / "mode3_problems.npz"
+FAMILIES = ("wall-headon", "wall-oblique", "arm-deployed")
+
+# name: IPOPT options on top of Mode III's own (controller.mode3)
+OPTIONS: dict[str, dict] = {
+    "default (MUMPS, monotone barrier)": {},
+    "MUMPS ordering AMD": {"mumps_pivot_order": 0},
+    "MUMPS ordering PORD": {"mumps_pivot_order": 4},
+    "MUMPS without scaling": {"mumps_permuting_scaling": 0, "mumps_scaling": 0},
+    "no iterative refinement": {"min_refinement_steps": 0},
+    "adaptive barrier (Mehrotra oracle)": {"mu_strategy": "adaptive"},
+    "adaptive barrier (probing oracle)": {"mu_strategy": "adaptive", "mu_oracle": "probing"},
+    "gentler Hessian perturbations": {"perturb_dec_fact": 0.1, "first_hessian_perturbation": 1e-2},
+    "L-BFGS Hessian": {"hessian_approximation": "limited-memory"},
+    "filter's infeasibility limit x1": {"theta_max_fact": 1.0},
+    "filter's infeasibility limit x0.1": {"theta_max_fact": 0.1},
+    "first acceptable iterate": {"acceptable_iter": 1},
+    "limit x1 and first acceptable iterate": {"theta_max_fact": 1.0, "acceptable_iter": 1},
+}
+
+
+def _record_run(args: tuple[str, int]) -> list[dict]:
+    """The Mode III problems of one closed loop (default controller), as solve() received them."""
+    family, seed = args
+    import controller.mode3 as m3
+    from validation.closed_loop import run
+    from validation.scenarios import SCENARIOS
+
+    calls: list[dict] = []
+    solve = m3.ModeIIIOCP.solve
+
+    def recording(self, h0, guess, current=None, duals=None):
+        calls.append({"h0": np.array(h0), "guess": np.array(guess), "current": np.zeros(3) if current is None
+                      else np.array(current), "lam_g": None if duals is None else np.array(duals[0]),
+                      "lam_x": None if duals is None else np.array(duals[1]), "lo": self._lo_u.copy(),
+                      "hi": self._hi_u.copy(), "contact": self.contact})
+        return solve(self, h0, guess, current, duals)
+
+    m3.ModeIIIOCP.solve = recording
+    run(SCENARIOS[family], seed=seed)
+    return calls
+
+
+def record(seeds: int, workers: int) -> None:
+    jobs = [(f, s) for f in FAMILIES for s in range(seeds)]
+    calls: list[dict] = []
+    with ProcessPoolExecutor(workers) as ex:
+        for c in tqdm(ex.map(_record_run, jobs), total=len(jobs), desc="closed loops", unit="run"):
+            calls += c
+    if not calls:
+        raise SystemExit("no Mode III problem in these runs; allowed: more seeds")
+    nan_like = {k: np.full_like(next(c[k] for c in calls if c[k] is not None), np.nan) for k in ("lam_g", "lam_x")}
+    PROBLEMS.parent.mkdir(exist_ok=True)
+    np.savez_compressed(PROBLEMS, **{k: np.array([c[k] if c[k] is not None else nan_like.get(k) for c in calls])
+                                     for k in calls[0]}, seeds=seeds)
+    print(f"{len(calls)} problems ({sum(c['lam_g'] is None for c in calls)} cold) -> {PROBLEMS}")
+
+
+def evaluate() -> None:
+    if not PROBLEMS.exists():
+        raise SystemExit(f"{PROBLEMS} is missing; allowed: run with --record first")
+    data = np.load(PROBLEMS)
+    n, cold = len(data["h0"]), np.isnan(data["lam_g"][:, 0])
+    params, scene = load_params(), load_scene()
+    model = UVMSModel(params, scene.water)
+    results: dict[str, list[tuple]] = {}
+    for name, opts in tqdm(OPTIONS.items(), desc="option sets", unit="set"):
+        ocps: dict[int, ModeIIIOCP] = {}
+        rows = []
+        for i in range(n):
+            contact = int(data["contact"][i])
+            if contact not in ocps:
+                ocps[contact] = ModeIIIOCP(model, scene.planes, contact, ModeIIISettings(ipopt_options=opts))
+            ocp = ocps[contact]
+            ocp.limit_inputs(data["lo"][i], data["hi"][i])
+            duals = None if cold[i] else (data["lam_g"][i], data["lam_x"][i])
+            sol = ocp.solve(data["h0"][i], data["guess"][i], data["current"][i], duals)
+            rows.append((sol.status.usable, sol.iterations, sol.solve_time, sol.cost))
+        results[name] = rows
+    base = results[next(iter(OPTIONS))]
+    lines = ["# Mode III's IPOPT on recorded problems", "",
+             f"`python bench/mode3_solvers.py` ({platform.machine()}, casadi {ca.__version__}, IPOPT with MUMPS). "
+             f"{n} Mode III problems ({int(cold.sum())} cold starts from Algorithm 2's guess, {n - int(cold.sum())} "
+             "warm starts from the shifted plan and its multipliers) that the default controller posed in MuJoCo "
+             f"closed loops of {', '.join(FAMILIES)}, seeds 0-{int(data['seeds']) - 1} (`--record`). Iterations and "
+             "times: median / p95 over the problems; cost: the median of (cost - default's cost) over the "
+             "problems both solve (IPOPT's acceptable level stops at dual infeasibility 1e-2, so costs differ "
+             "in the third digit).", "",
+             "| options | usable | iterations, warm | iterations, cold | time, warm [ms] | time, cold [ms] "
+             "| ms per iteration | cost - default's |",
+             "|---|---|---|---|---|---|---|---|"]
+    for name, rows in results.items():
+        ok, it, t, cost = (np.array(c) for c in zip(*rows, strict=True))
+        both = ok & np.array([b[0] for b in base])
+        dc = np.median(cost[both] - np.array([b[3] for b in base])[both]) if both.any() else np.nan
+
+        def mp(v: np.ndarray) -> str:
+            return f"{np.median(v):.0f} / {np.percentile(v, 95):.0f}" if len(v) else "-"
+
+        lines.append(f"| {name} | {int(ok.sum())}/{n} | {mp(it[~cold])} | {mp(it[cold])} | {mp(1e3 * t[~cold])} | "
+                     f"{mp(1e3 * t[cold])} | {1e3 * t.sum() / max(it.sum(), 1):.1f} | {dc:+.1e} |")
+    (OUT / "mode3_solvers.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--record", type=int, metavar="SEEDS", help="record the problems of seeds 0..SEEDS-1 first")
+    ap.add_argument("--workers", type=int, default=2, help="closed loops in parallel while recording")
+    a = ap.parse_args(argv)
+    if a.record is not None:
+        if a.record < 1 or a.workers < 1:
+            raise SystemExit(f"--record {a.record}, --workers {a.workers}; allowed: both >= 1")
+        record(a.record, a.workers)
+    evaluate()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
