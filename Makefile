@@ -28,6 +28,7 @@ bench: $(VENV)/.installed
 	$(PY) bench/model_eval.py
 	$(PY) bench/nmpc_modes.py
 	$(PY) bench/closed_loop_rtf.py
+	$(PY) bench/mode3_solvers.py --record 2
 	$(PY) bench/certificate_search.py
 
 assets: $(VENV)/.installed
