@@ -41,11 +41,13 @@ def test_plan_touches_the_wall_at_its_end_and_the_model_agrees(params, scene) ->
     nodes (1e-6 m), and keeps dt within its bounds (IPOPT relaxes them by 1e-8 relative). Oracle:
     the model's RK4 at 100 substeps per interval under the plan's inputs ends with the tip within
     5 mm of the wall and the hull within 5 mm of the plan's hull position (the midpoint rule's error
-    at dt <= 0.1 s on a swinging arm; measured 1.2 mm and 1.2 mm over a 3-interval plan)."""
+    at dt <= 0.1 s on a swinging arm; measured 1.2 mm and 1.2 mm over a 3-interval plan). IPOPT
+    needs 136 iterations here from the deploy guess, more than the closed loop's cap of 100
+    (ModeIISettings.max_iter), so the test raises the cap: it checks the converged plan."""
     model = UVMSModel(params, scene.water)
     current = np.array([0.15, 0.0, 0.0])
     h0, _ = initial_state(params, Scenario("approach", "", gap=0.35, speed=0.2))
-    settings = ModeIISettings()
+    settings = ModeIISettings(max_iter=300)
     ocp = ModeIIOCP(model, scene.planes, 0, settings)
     lo, hi = params.input_bounds()
     lo[:8] = hi[:8] = 0.0
