@@ -5,8 +5,8 @@ about 4 ms each. This benchmark replays the Mode III problems that MuJoCo closed
 posed, so that a change of solver or options is measured offline, side by side, on the same set.
 
   python bench/mode3_solvers.py --record 2   # the problems of the default controller on wall-headon,
-                                             # wall-oblique and arm-deployed, seeds 0-1 (about 2 min)
-  python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 10 min)
+                                             # wall-oblique and arm-deployed, seeds 0-1 (about 1 min)
+  python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 15 min)
 
 --record writes out/mode3_problems.npz (not committed, 1-2 MB; the closed loops are deterministic, so
 recording again gives the same problems on the same machine): per problem, the measured state, the primal guess
