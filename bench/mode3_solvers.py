@@ -83,8 +83,8 @@ def record(seeds: int, workers: int) -> None:
     with ProcessPoolExecutor(workers) as ex:
         for c in tqdm(ex.map(_record_run, jobs), total=len(jobs), desc="closed loops", unit="run"):
             calls += c
-    if not calls:
-        raise SystemExit("no Mode III problem in these runs; allowed: more seeds")
+    if not any(c["lam_g"] is not None for c in calls):
+        raise SystemExit("no warm-started Mode III problem in these runs; allowed: more seeds")
     nan_like = {k: np.full_like(next(c[k] for c in calls if c[k] is not None), np.nan) for k in ("lam_g", "lam_x")}
     PROBLEMS.parent.mkdir(exist_ok=True)
     np.savez_compressed(PROBLEMS, **{k: np.array([c[k] if c[k] is not None else nan_like.get(k) for c in calls])
