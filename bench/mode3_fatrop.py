@@ -31,18 +31,16 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
+from mode3_solvers import load_problems
 from tqdm import tqdm
 
 from controller.codegen import compiled
 from controller.kinematics import euler_rates, euler_zyx
 from controller.mode3 import ModeIIIOCP, ModeIIISettings
-from controller.model import UVMSModel
 from controller.stage_nlp import StageProblem, stage_functions
 from controller.transcription import clearances, smooth_relu, tip_gap
-from uvms import load_params, load_scene
 
 OUT = Path(__file__).parent / "results"
-PROBLEMS = Path(__file__).parent.parent / "out" / "mode3_problems.npz"
 USABLE = 1e-5  # largest constraint violation of a usable plan
 FATROP = {"print_level": 0, "max_iter": 200, "tol": 1e-6, "tol_acceptable": 1e-2, "acceptable_iter": 3,
           "constr_viol_tol": 1e-5, "mu_init": 1e-3}
@@ -153,12 +151,8 @@ def main(argv: list[str] | None = None) -> None:
     every = ap.parse_args(argv).every
     if every < 1:
         raise SystemExit(f"--every {every}; allowed: >= 1")
-    if not PROBLEMS.exists():
-        raise SystemExit(f"{PROBLEMS} is missing; allowed: run `python bench/mode3_solvers.py --record 2` first")
-    data = np.load(PROBLEMS)
-    n, cold = len(data["h0"]), np.isnan(data["lam_g"][:, 0])
-    params, scene = load_params(), load_scene()
-    model = UVMSModel(params, scene.water)
+    data, cold, model, scene = load_problems()
+    n = len(cold)
     ocps: dict[int, tuple[ModeIIIOCP, FatropModeIII]] = {}
     rows = []
     for i in tqdm(range(0, n, every), desc="problems", unit="problem"):

@@ -32,6 +32,7 @@ from tqdm import tqdm
 from controller.mode3 import ModeIIIOCP, ModeIIISettings
 from controller.model import UVMSModel
 from uvms import load_params, load_scene
+from uvms.scene import Scene
 
 OUT = Path(__file__).parent / "results"
 PROBLEMS = Path(__file__).parent.parent / "out" / "mode3_problems.npz"
@@ -92,13 +93,18 @@ def record(seeds: int, workers: int) -> None:
     print(f"{len(calls)} problems ({sum(c['lam_g'] is None for c in calls)} cold) -> {PROBLEMS}")
 
 
-def evaluate() -> None:
+def load_problems() -> tuple[dict[str, np.ndarray], np.ndarray, UVMSModel, Scene]:
+    """The recorded problems, which of them are cold starts, the controller's model and the scene."""
     if not PROBLEMS.exists():
-        raise SystemExit(f"{PROBLEMS} is missing; allowed: run with --record first")
-    data = np.load(PROBLEMS)
-    n, cold = len(data["h0"]), np.isnan(data["lam_g"][:, 0])
-    params, scene = load_params(), load_scene()
-    model = UVMSModel(params, scene.water)
+        raise SystemExit(f"{PROBLEMS} is missing; allowed: run `python bench/mode3_solvers.py --record 2` first")
+    data = dict(np.load(PROBLEMS))
+    scene = load_scene()
+    return data, np.isnan(data["lam_g"][:, 0]), UVMSModel(load_params(), scene.water), scene
+
+
+def evaluate() -> None:
+    data, cold, model, scene = load_problems()
+    n = len(cold)
     results: dict[str, list[tuple]] = {}
     for name, opts in tqdm(OPTIONS.items(), desc="option sets", unit="set"):
         ocps: dict[int, ModeIIIOCP] = {}
