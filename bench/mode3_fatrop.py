@@ -2,7 +2,8 @@
 default IPOPT, on the Mode III problems that MuJoCo closed loops posed.
 
   python bench/mode3_solvers.py --record 2   # once: out/mode3_problems.npz (about 1 min)
-  python bench/mode3_fatrop.py               # about 5 min; writes bench/results/mode3_fatrop.md
+  python bench/mode3_fatrop.py               # about 2 min (plus compiling, once); writes
+                                             # bench/results/mode3_fatrop.md
 
 fatrop wants explicit dynamics, x_k+1 = f(x_k, u_k), and path constraints on (x_k, u_k) alone; Mode
 III's midpoint rule is implicit in h_k+1 (controller.transcription.midpoint_residual: the kinematics
@@ -36,9 +37,9 @@ from tqdm import tqdm
 
 from controller.codegen import compiled
 from controller.kinematics import euler_rates, euler_zyx
-from controller.mode3 import ModeIIIOCP, ModeIIISettings
+from controller.mode3 import ModeIIIOCP, ModeIIISettings, friction_rows, stage_cost
 from controller.stage_nlp import StageProblem, stage_functions
-from controller.transcription import clearances, smooth_relu, tip_gap
+from controller.transcription import clearances, tip_gap
 
 OUT = Path(__file__).parent / "results"
 USABLE = 1e-5  # largest constraint violation of a usable plan
@@ -62,18 +63,14 @@ class FatropModeIII:
         hm = (h + h1) / 2
         Fw = ca.vertcat(F, ca.SX.zeros(3))
         Q = sum(model.generalized_forces(hm, u, Fw, ca.DM(ocp.Rw), vc, ca.DM.zeros(3)))
-        v_t = ca.DM(ocp.Rw[:, 1:]).T @ model.jacobian_ee(hm)[:3, :] @ hm[nv:]
         path = ca.vertcat(
             h1[3:6] - h[3:6] - s.dt * euler_rates(em, vm[3:6]),
             model.mass_matrix(hm) @ a - Q,
             tip_gap(model, h1, plane),
-            F[1:] + s.friction * F[0] * v_t / ca.sqrt(ca.dot(v_t, v_t) + s.friction_smoothing**2),
+            friction_rows(model, ocp.Rw, hm, F, s),
             clearances(model, h1, ocp.planes, ocp.contact),
         )
-        d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
-        rates = h1[nv + 3:]
-        cost = (wi * smooth_relu(-d0_dot, s.approach_smoothing) + s.input_weight * ca.dot(u, u)
-                + s.force_weight * ca.dot(F, F) + s.rate_weight * ca.dot(rates, rates))
+        cost = stage_cost(model, plane, h1, u, F, wi, s)
         self.nvv, ng = nu + nv + 6, path.size1()
         st = ca.vertcat(h, u, a, F, em, x1)
         pr = StageProblem(nx=ns, nv=self.nvv, horizon=N, np=ns + 3, np_stage=1,

@@ -84,6 +84,25 @@ class ModeIIISolution:
     lam_x: np.ndarray
 
 
+def friction_rows(model: UVMSModel, Rw: np.ndarray, hm: ca.SX, F: ca.SX, s: ModeIIISettings) -> ca.SX:
+    """The smooth friction law's two rows (= 0): F_t + mu F_n v_t / sqrt(|v_t|^2 + delta^2), v_t the
+    tip's tangential velocity at the midpoint state hm, F in the obstacle frame Rw [N]."""
+    v_t = ca.DM(Rw[:, 1:]).T @ (model.jacobian_ee(hm)[:3, :] @ hm[model.n_speeds:])
+    return F[1:] + s.friction * F[0] * v_t / ca.sqrt(ca.dot(v_t, v_t) + s.friction_smoothing**2)
+
+
+def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi: ca.SX, s: ModeIIISettings) -> ca.SX:
+    """J_III's stage term at the interval's end state h1 (stage weight wi) plus the regularization."""
+    d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
+    rates = h1[model.n_speeds + 3 :]  # hull angular and joint rates
+    return (
+        wi * smooth_relu(-d0_dot, s.approach_smoothing)
+        + s.input_weight * ca.dot(u, u)
+        + s.force_weight * ca.dot(F, F)
+        + s.rate_weight * ca.dot(rates, rates)
+    )
+
+
 class ModeIIIOCP:
     def __init__(
         self, model: UVMSModel, planes: Sequence[Plane], contact: int, settings: ModeIIISettings = ModeIIISettings()
@@ -104,9 +123,7 @@ class ModeIIIOCP:
         P = ca.SX.sym("P", ns + 3 + 1)  # h0, current, stage weight w_i
         vc, wi = P[ns : ns + 3], P[ns + 3]
         hm = (h + h1) / 2
-        v_tip = model.jacobian_ee(hm)[:3, :] @ hm[nv:]
-        v_t = ca.DM(self.Rw[:, 1:]).T @ v_tip
-        friction = F[1:] + s.friction * F[0] * v_t / ca.sqrt(ca.dot(v_t, v_t) + s.friction_smoothing**2)
+        friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
         self.n_clear = self._clearance.size1_out(0)
         cons = ca.vertcat(
@@ -115,14 +132,7 @@ class ModeIIIOCP:
             friction,
             self._clearance(h1),
         )
-        d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
-        rates = h1[nv + 3 :]  # hull angular and joint rates
-        cost = (
-            wi * smooth_relu(-d0_dot, s.approach_smoothing)
-            + s.input_weight * ca.dot(u, u)
-            + s.force_weight * ca.dot(F, F)
-            + s.rate_weight * ca.dot(rates, rates)
-        )
+        cost = stage_cost(model, plane, h1, u, F, wi, s)
         st = ca.vertcat(h, u, a, F, h1)
         problem = StageProblem(
             nx=ns,
