@@ -12,10 +12,19 @@ One CasADi formula serves every caller: the public functions evaluate casadi.Fun
 for symbolic arguments and floats / numpy arrays for numeric ones.
 
 Smoothing (so that values, gradients and Hessians are finite everywhere, e.g. for u along an axis):
-|w| -> sqrt(w^2 + DELTA^2), which overestimates h by at most 3 DELTA = 3e-7 m; each l_q norm is evaluated with its
-largest term factored out (no under/overflow for large q); q is capped at Q_MAX (only eps > 2 - 2/Q_MAX = 1.9998
-is affected, e.g. eps = 2 exactly, where the norm is l_inf), which overestimates h by a factor of at most
-2^(2/Q_MAX) - 1 = 1.4e-4 (70 um on a 0.5 m body). h is never underestimated, so distances err on the safe side.
+|w| -> sqrt(w^2 + s^2), which overestimates h by at most 3 s (s = DELTA = 1e-7 m by default: 3e-7 m); each l_q
+norm is evaluated with its largest term factored out (no under/overflow for large q); q is capped at Q_MAX (only
+eps > 2 - 2/Q_MAX = 1.9998 is affected, e.g. eps = 2 exactly, where the norm is l_inf), which overestimates h by a
+factor of at most 2^(2/Q_MAX) - 1 = 1.4e-4 (70 um on a 0.5 m body). h is never underestimated, so distances err
+on the safe side.
+
+The smoothing length s also sets how far from non-smooth the distance is. For box-like bodies (eps < 1, so q < 2)
+the terms |w|^q have unbounded curvature at w = 0, and w = 0 is where a face lies parallel to the plane: the hull
+facing a wall, a link pointing its flat end at it. There the curvature is of order s^(q - 2): the default hull
+(q = 1.25) facing a wall has d''(yaw) = -b^2 s^(q-2) / a^(q-1) at yaw 0, -2.1e4 m/rad^2 at s = 1e-7 m and -21 m/rad^2
+at s = 1e-3 m (tests/test_superellipsoid.py), and the curvature falls to that of the unsmoothed body within about
+s / b rad. Newton-type solvers oscillate on such a spike (controller.model.ModelOptions.support_smoothing, which the
+NLPs use, says what we measured).
 """
 
 from __future__ import annotations
@@ -26,16 +35,16 @@ import casadi as ca
 import numpy as np
 import trimesh
 
-DELTA = 1e-7  # m, smooth-absolute-value constant: 0 <= h_smoothed - h <= 3 DELTA
+DELTA = 1e-7  # m, the default smooth-absolute-value length s: 0 <= h_smoothed - h <= 3 s
 Q_MAX = 1e4  # cap on the support exponents q = 2/(2 - eps), reached only for eps > 1.9998
 
 Num = float | np.ndarray
 Sym = ca.SX | ca.MX
 
 
-def _abs(x: ca.SX) -> ca.SX:
-    """Smooth |x| [m]: sqrt(x^2 + DELTA^2), in [|x|, |x| + DELTA]."""
-    return ca.sqrt(x**2 + DELTA**2)
+def _abs(x: ca.SX, s: float) -> ca.SX:
+    """Smooth |x| [m]: sqrt(x^2 + s^2), in [|x|, |x| + s]."""
+    return ca.sqrt(x**2 + s**2)
 
 
 def _lq(v1: ca.SX, v2: ca.SX, q: ca.SX) -> ca.SX:
@@ -54,11 +63,13 @@ def _exponent(eps: ca.SX) -> ca.SX:
 
 
 @cache
-def _functions() -> tuple[ca.Function, ca.Function, ca.Function]:
-    """Build (support, plane distance, distance rate) once, as SX casadi.Functions."""
+def _functions(smoothing: float = DELTA) -> tuple[ca.Function, ca.Function, ca.Function]:
+    """Build (support, plane distance, distance rate) once per smoothing length [m], as SX casadi.Functions."""
+    if not smoothing > 0:
+        raise ValueError(f"smoothing {smoothing!r} m; allowed: > 0")
     abc, e1, e2, u = ca.SX.sym("abc", 3), ca.SX.sym("eps1"), ca.SX.sym("eps2"), ca.SX.sym("u", 3)
     w = abc * u
-    h = _lq(_lq(_abs(w[0]), _abs(w[1]), _exponent(e1)), _abs(w[2]), _exponent(e2))
+    h = _lq(_lq(_abs(w[0], smoothing), _abs(w[1], smoothing), _exponent(e1)), _abs(w[2], smoothing), _exponent(e2))
     support = ca.Function("se_support", [abc, e1, e2, u], [h, ca.gradient(h, u)], ["abc", "eps1", "eps2", "u"],
                           ["h", "point"])
 
@@ -99,32 +110,35 @@ def _call(fn: ca.Function, args: tuple) -> list:
     return [float(o) if o.numel() == 1 else np.asarray(o).ravel() for o in out]
 
 
-def support(semi_axes: Num | Sym, eps1: Num | Sym, eps2: Num | Sym, u: Num | Sym) -> float | Sym:
+def support(semi_axes: Num | Sym, eps1: Num | Sym, eps2: Num | Sym, u: Num | Sym, smoothing: float = DELTA
+            ) -> float | Sym:
     """Support function h(u) [m]: max of u.x over the body (frame at its centre), u in the superellipsoid frame."""
-    return _call(_functions()[0], (semi_axes, eps1, eps2, u))[0]
+    return _call(_functions(smoothing)[0], (semi_axes, eps1, eps2, u))[0]
 
 
-def support_point(semi_axes: Num | Sym, eps1: Num | Sym, eps2: Num | Sym, u: Num | Sym) -> np.ndarray | Sym:
+def support_point(semi_axes: Num | Sym, eps1: Num | Sym, eps2: Num | Sym, u: Num | Sym, smoothing: float = DELTA
+                  ) -> np.ndarray | Sym:
     """grad h(u) [m]: the surface point farthest along u, in the superellipsoid frame."""
-    return _call(_functions()[0], (semi_axes, eps1, eps2, u))[1]
+    return _call(_functions(smoothing)[0], (semi_axes, eps1, eps2, u))[1]
 
 
 def plane_distance(semi_axes: Num | Sym, eps1: Num | Sym, eps2: Num | Sym, center: Num | Sym, R: Num | Sym,
-                   normal: Num | Sym, offset: Num | Sym) -> float | Sym:
+                   normal: Num | Sym, offset: Num | Sym, smoothing: float = DELTA) -> float | Sym:
     """Signed distance [m] from the body (centre [m] and rotation R, world) to the plane n.x + D = 0.
 
     n is the unit normal towards the free side, D = offset [m]. Negative: the depth of penetration along n.
+    `smoothing` [m]: the support function's smoothing length s (module docstring; underestimates d by <= 3 s).
     """
-    return _call(_functions()[1], (semi_axes, eps1, eps2, center, R, normal, offset))[0]
+    return _call(_functions(smoothing)[1], (semi_axes, eps1, eps2, center, R, normal, offset))[0]
 
 
 def closing_speed(semi_axes: Num | Sym, eps1: Num | Sym, eps2: Num | Sym, R: Num | Sym, normal: Num | Sym,
-                  velocity: Num | Sym, omega: Num | Sym) -> float | Sym:
+                  velocity: Num | Sym, omega: Num | Sym, smoothing: float = DELTA) -> float | Sym:
     """Time derivative [m/s] of plane_distance (negative when approaching).
 
     velocity: the centre's world velocity [m/s]; omega: angular velocity in the superellipsoid frame [rad/s].
     """
-    return _call(_functions()[2], (semi_axes, eps1, eps2, R, normal, velocity, omega))[0]
+    return _call(_functions(smoothing)[2], (semi_axes, eps1, eps2, R, normal, velocity, omega))[0]
 
 
 def _signed_power(t: np.ndarray, e: float) -> np.ndarray:
