@@ -12,6 +12,7 @@ from controller.feasibility import FeasibilityTest, Method, Verdict
 from controller.model import UVMSModel
 from controller.rollouts import simulate
 from controller.transcription import FEASIBLE_VIOLATION
+from validation.closed_loop import SHARP
 
 WALL_X = 2.0  # m, the default scene's wall
 
@@ -25,6 +26,18 @@ def certificate(params, scene) -> FeasibilityTest:
 def searching(certificate, scene) -> FeasibilityTest:
     """The certificate with its optional line-search SQP screen (20 iterations)."""
     return FeasibilityTest(certificate.model, scene.planes, search_iterations=20)
+
+
+@pytest.fixture(scope="module")
+def sharp(params, scene) -> FeasibilityTest:
+    """The default certificate on the model as it was until 2026-12-01 (validation.closed_loop.SHARP:
+    the superellipsoids smoothed at 1e-7 m), where the opt-in screens below were measured and are run."""
+    return FeasibilityTest(UVMSModel(params, scene.water, SHARP), scene.planes)
+
+
+@pytest.fixture(scope="module")
+def sharp_searching(sharp, scene) -> FeasibilityTest:
+    return FeasibilityTest(sharp.model, scene.planes, search_iterations=20)
 
 
 def approach(params, gap: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -113,24 +126,50 @@ def test_two_algorithms_agree_on_the_tight_case(searching, params) -> None:
 
 
 @pytest.mark.slow
-def test_search_screen_avoids_a_false_unavoidable(certificate, searching, params) -> None:
-    """0.5 m/s with the hull's front 10 cm from the wall. The minimum-violation IPOPT fails on this
-    problem (an infinite violation), so the default certificate takes the safe side and says
-    'unavoidable'; the line-search SQP's plan shows that F is not empty. Oracle: its inputs
-    re-simulated by RK4 (20 substeps an interval) keep every body the 2 cm margin off every plane
-    at every node, within the input and joint bounds."""
+def test_search_screen_avoids_a_false_unavoidable(sharp, sharp_searching, params) -> None:
+    """0.5 m/s with the hull's front 10 cm from the wall, on the sharp model (1e-7 m smoothing). The
+    minimum-violation IPOPT fails on this problem (an infinite violation), so the default certificate
+    takes the safe side and says 'unavoidable'; the line-search SQP's plan shows that F is not empty.
+    Oracle: its inputs re-simulated by RK4 (20 substeps an interval) keep every body the 2 cm margin
+    off every plane at every node, within the input and joint bounds."""
     h, ref = approach(params, 0.1, 0.5)
-    c = searching(h, ref)
+    c = sharp_searching(h, ref)
     assert (c.verdict, c.method) == (Verdict.FEASIBLE, Method.GLOBALIZED_SQP)
-    hs = simulate(searching.model, h, c.solution.u, searching.settings.dt, substeps=20)
-    assert searching.plan_is_feasible(hs, c.solution.u)
-    alone = certificate(h, ref)
+    hs = simulate(sharp_searching.model, h, c.solution.u, sharp_searching.settings.dt, substeps=20)
+    assert sharp_searching.plan_is_feasible(hs, c.solution.u)
+    alone = sharp(h, ref)
     assert alone.verdict is Verdict.INFEASIBLE and alone.violation == np.inf
 
 
 @pytest.mark.slow
-def test_line_search_reaches_F_where_full_steps_do_not(searching) -> None:
-    """A step of the Kane-model closed loop with every thruster dead (validation.kane_closed_loop's
+def test_default_smoothing_removes_the_false_unavoidables(certificate, scene, params) -> None:
+    """The two calls where, on the sharp model, the default certificate's IPOPT fails and so says
+    'unavoidable' although F is not empty (the tests around this one): with the default smoothing
+    (1e-3 m) its minimum-violation problem converges to a zero minimum in both. Oracle: the plan's
+    inputs re-simulated by RK4 (20 substeps an interval; the recorded current and thruster bounds for
+    the MuJoCo call) keep every body the 2 cm margin off every plane at every node, within bounds
+    (measured 3.0 and 4.9 cm)."""
+    h, ref = approach(params, 0.1, 0.5)
+    rec = np.load(Path(__file__).parent / "data" / "wall_headon_certificate_call.npz")
+    calls = [(h, ref, None, None, None), (rec["h0"], rec["h_ref"], rec["current"], rec["input_lo"], rec["input_hi"])]
+    try:
+        for h0, h_ref, current, lo, hi in calls:
+            if lo is not None:
+                certificate.limit_inputs(lo, hi)
+            fresh = (rec["fresh_h"], rec["fresh_u"]) if lo is not None else None
+            c = certificate(h0, h_ref, current, fresh=(lambda f=fresh: f) if fresh else None)
+            assert (c.verdict, c.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
+            assert c.violation <= certificate.tolerance
+            hs = simulate(certificate.model, h0, c.solution.u, certificate.settings.dt, substeps=20, current=current)
+            assert certificate.plan_is_feasible(hs, c.solution.u)
+    finally:
+        certificate.limit_inputs(*params.input_bounds())
+
+
+@pytest.mark.slow
+def test_line_search_reaches_F_where_full_steps_do_not(sharp_searching) -> None:
+    """On the sharp model (where the screen was measured): a step of the Kane-model closed loop with
+    every thruster dead (validation.kane_closed_loop's
     thrusters-dead approach, t = 0.7 s; recorded in tests/data): only the arm's reaction can slow
     the hull. From the previous plan shifted, Mode I's SQP with full steps ends 20 iterations with
     its constraints violated by more than 1e-2 (m, N or N m); with the l1-merit line search it
@@ -138,7 +177,7 @@ def test_line_search_reaches_F_where_full_steps_do_not(searching) -> None:
     re-simulated by RK4 (20 substeps an interval) keep every body within 0.5 mm of the 2 cm margin
     (the implicit midpoint rule at dt = 0.1 s and RK4 differ by that much here; measured 0.1 mm)."""
     rec = np.load(Path(__file__).parent / "data" / "thrusters_dead_drift_step.npz")
-    test = searching
+    test = sharp_searching
     try:
         test.limit_inputs(rec["input_lo"], rec["input_hi"])
         guess = test.search.guess_from_rollout(rec["plan_h"], rec["plan_u"])
@@ -154,8 +193,9 @@ def test_line_search_reaches_F_where_full_steps_do_not(searching) -> None:
 
 
 @pytest.mark.slow
-def test_warm_start_finds_F_where_the_default_start_fails(certificate, scene) -> None:
-    """A certificate call of a MuJoCo closed loop (wall-headon, mismatch seed 1, t = 1.9 s; recorded
+def test_warm_start_finds_F_where_the_default_start_fails(sharp, scene) -> None:
+    """On the sharp model (where the warm start was measured): a certificate call of a MuJoCo closed
+    loop (wall-headon, mismatch seed 1, t = 1.9 s; recorded
     in tests/data with Mode I's fresh plan): the screens fail, and the minimum-violation problem
     from the braking rollout ends in an IPOPT failure, so the default certificate says F is empty
     (infinite violation) and the controller switched to Mode II there. Started from the fresh plan
@@ -163,10 +203,10 @@ def test_warm_start_finds_F_where_the_default_start_fails(certificate, scene) ->
     RK4 (20 substeps an interval, the recorded current) stay within bounds and keep every body at
     least the 2 cm margin off (measured 4.9 cm)."""
     rec = np.load(Path(__file__).parent / "data" / "wall_headon_certificate_call.npz")
-    warm = FeasibilityTest(certificate.model, scene.planes, warm_start=True)
+    warm = FeasibilityTest(sharp.model, scene.planes, warm_start=True)
     fresh = (rec["fresh_h"], rec["fresh_u"])
     verdicts = []
-    for test in (certificate, warm):
+    for test in (sharp, warm):
         try:
             test.limit_inputs(rec["input_lo"], rec["input_hi"])
             verdicts.append(test(rec["h0"], rec["h_ref"], rec["current"], fresh=lambda: fresh))

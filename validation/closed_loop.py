@@ -32,14 +32,16 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, replace
 from enum import Enum
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from controller.feasibility import Certificate
-from controller.model import UVMSModel
+from controller.model import ModelOptions, UVMSModel
 from controller.rollouts import BrakingPolicy
 from controller.sqp import QPMode
+from controller.superellipsoid import DELTA
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings, SwitchReason
 from uvms import load_params, load_scene
 from uvms.params import UVMSParams
@@ -173,12 +175,21 @@ def budgeted(s: SwitchingSettings) -> SwitchingSettings:
 
 
 # The controllers by name: how each changes the given SwitchingSettings ("braking" does not use them).
-# The variants of ours are the A/B cases of issue 4's note; all but "switching" build on the paper's
-# Mode II hand-over (`paper`), as when they were measured (bench/results/switch_variants, handover_*).
-CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
-    "switching": lambda s: s,
-    "mode1-only": lambda s: replace(s, switching=False),
-    "braking": lambda s: s,
+# "switching-sharp" is the default as it was until 2026-12-01: the support function smoothed at 1e-7 m
+# (SHARP) and no deploy deadline. The variants after it are the A/B cases of issue 4's note, measured
+# then: they run on SHARP and without the deadline (unless they ask for it), as when they were measured;
+# all but "switching-sharp" build on the paper's Mode II hand-over (`paper`) unless they say otherwise
+# (bench/results/switch_variants, handover_*, mode2_cap100 and the others).
+SHARP = ModelOptions(support_smoothing=DELTA)
+
+
+def _without_deadline(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
+                      ) -> SwitchingSettings:
+    return variant(replace(s, deploy_deadline=False))
+
+
+_MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
+    "switching-sharp": lambda s: s,
     "switching-paper": paper,
     "switching-paper-fine2": lambda s: replace(paper(s), mode2=replace(s.mode2, terminal_margin=None)),
     "switching-paper-strut-check": lambda s: replace(s, mode2=replace(s.mode2, dt_nominal=0.1,
@@ -191,7 +202,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
                                            certified_release=True),  # the screens decide both ways
     "switching-background": lambda s: replace(s, background_certificate=True),
     "switching-realtime": lambda s: budgeted(replace(s, background_certificate=True)),
-    "switching-screens-realtime": lambda s: budgeted(CONTROLLERS["switching-screens"](s)),
+    "switching-screens-realtime": lambda s: budgeted(_MEASURED_ON_SHARP["switching-screens"](s)),
     "switching-speed-abs": lambda s: replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp,
                                                                               qp_mode=QPMode.SPEED_ABS))),
     "switching-soft-tip": lambda s: replace(s, mode2=replace(s.mode2, ee_speed_weight=SOFT_TIP_WEIGHT)),
@@ -205,6 +216,15 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
                                                                           distance_margin=CONTACT_MARGIN),
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
+CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
+    "switching": lambda s: s,
+    "mode1-only": lambda s: replace(s, switching=False),
+    "braking": lambda s: s,
+    "switching-no-deadline": lambda s: replace(s, deploy_deadline=False),  # F's emptiness alone switches
+    **{name: partial(_without_deadline, f) for name, f in _MEASURED_ON_SHARP.items()},
+}
+# The model each controller plans on, when it is not ModelOptions() (the default).
+MODEL_OPTIONS: dict[str, ModelOptions] = {name: SHARP for name in _MEASURED_ON_SHARP}
 
 
 def certificate_row(c: Certificate | None) -> dict | None:
@@ -249,7 +269,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
             except OSError as e:
                 raise ValueError(f"output path {path}: {e.strerror}; allowed: a writable folder") from None
     params, scene, plant, drawn = build_plant(sc, mismatch, seed)
-    model = UVMSModel(params, scene.water)
+    model = UVMSModel(params, scene.water, MODEL_OPTIONS.get(controller, ModelOptions()))
     h0, ref = initial_state(params, sc)
     plant.reset(h0)
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)

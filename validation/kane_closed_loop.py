@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.model import UVMSModel
+from controller.model import ModelOptions, UVMSModel
 from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings
 from uvms import load_params, load_scene
-from validation.closed_loop import CONTROLLERS, initial_state, switches
+from validation.closed_loop import CONTROLLERS, MODEL_OPTIONS, initial_state, switches
 from validation.model_plant import ModelPlant
 from validation.scenarios import Scenario
 
@@ -57,9 +57,10 @@ class Run:
         return [m for k, m in enumerate(seq) if k == 0 or seq[k - 1] is not m]
 
 
-def run(scenario: Scenario, settings: SwitchingSettings | None = None) -> Run:
+def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: ModelOptions | None = None) -> Run:
+    """The scenario in closed loop on the model (planning on `options`'s model, simulated on it too)."""
     params, scene = load_params(), load_scene()
-    model = UVMSModel(params, scene.water)
+    model = UVMSModel(params, scene.water, options or ModelOptions())
     base = settings or SwitchingSettings()
     settings = replace(base, current=scenario.current)
     h, ref = initial_state(params, scenario)
@@ -103,7 +104,8 @@ def main(names: list[str], controller: str = "switching") -> None:
             "switches to Mode II | step time median/p95 [ms] per mode |",
             "|---|---|---|---|---|---|---|---|"]
     for name in names or list(SCENARIOS):
-        r = run(SCENARIOS[name], CONTROLLERS[controller](SwitchingSettings()))
+        r = run(SCENARIOS[name], CONTROLLERS[controller](SwitchingSettings()),
+                MODEL_OPTIONS.get(controller, ModelOptions()))
         rows.append(summary_row(r))
         print(rows[-1], flush=True)
     option, suffix = ("", "") if controller == "switching" else (f" --controller {controller}", f"_{controller}")
