@@ -190,6 +190,7 @@ def _without_deadline(variant: Callable[[SwitchingSettings], SwitchingSettings],
 
 _MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-sharp": lambda s: s,
+    "switching-sharp-deadline": lambda s: replace(s, deploy_deadline=True),  # the deadline alone (no smoothing)
     "switching-paper": paper,
     "switching-paper-fine2": lambda s: replace(paper(s), mode2=replace(s.mode2, terminal_margin=None)),
     "switching-paper-strut-check": lambda s: replace(s, mode2=replace(s.mode2, dt_nominal=0.1,
