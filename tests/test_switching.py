@@ -65,7 +65,7 @@ def test_thruster_failure_approach_switches_through_all_modes(params) -> None:
     >= 0 (the switch back to Mode I requires it); every planned contact force obeys
     |F_t| <= mu F_n (1e-6 N). (Mode I's arm motion alone slows the hull for a while, and on the
     smoothed model (1e-3 m, the default) the certificate finds F non-empty throughout: the switch, at
-    1.5 s, is the deploy deadline's; Mode III from 1.8 s, back in Mode I at 2.1 s. On the sharp model
+    1.5 s, is the deploy deadline's; Mode III from 1.8 s, back in Mode I at 2.0 s. On the sharp model
     IPOPT's failure on the minimum-violation problem switched at 1.5 s.)"""
     r = run(replace(SCENARIOS["thrusters-dead"], duration=2.6))
     assert r.modes[:4] == [Mode.I, Mode.II, Mode.III, Mode.I]
