@@ -94,12 +94,17 @@ class FeasibilityTest:
     """Decide F != {} for Mode I's OCP (same model, planes and settings)."""
 
     def __init__(self, model: UVMSModel, planes: Sequence[Plane], settings: ModeISettings | None = None,
-                 tolerance: float = 1e-3, search_iterations: int = 0, warm_start: bool = False):
+                 tolerance: float = 1e-3, search_iterations: int = 0, warm_start: bool = False,
+                 retry: bool = False):
         """`search_iterations`: the line-search SQP screen's budget (0: no such screen; 20 is the
         tested value; it also needs settings.compiled). `warm_start`: the minimum-violation problem
-        starts from the fresh Mode I plan when there is one (the module's docstring)."""
+        starts from the fresh Mode I plan when there is one (the module's docstring). `retry`: when
+        IPOPT fails on the minimum-violation problem from the braking rollout, solve it again, with
+        the same options, from the fresh Mode I plan when there is one (opt-in: on the three hardest
+        MuJoCo families 63 of 72 against the default's 64, with 7 of 149 switches decided by an IPOPT
+        failure against 53 of 143; bench/results/certificate_retry)."""
         settings = settings or ModeISettings()
-        self.model, self.settings, self.tolerance = model, settings, tolerance
+        self.model, self.settings, self.tolerance, self.retry = model, settings, tolerance, retry
         # Started cold from the rollout: a large initial barrier and no warm-start point work best
         # (with Mode I's warm-start options IPOPT hit 100 iterations on the unavoidable case). The
         # monotone barrier stays: the adaptive one reached a zero violation on 15 of 18 problems
@@ -189,6 +194,9 @@ class FeasibilityTest:
             sol = self.warm.solve(h0, h_ref, current, guess=self.warm.guess_from_rollout(*candidate))
         else:
             sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
+            if self.retry and not sol.status.usable and candidate is not None:
+                sol = self.problem.solve(h0, h_ref, current, previous,
+                                         guess=self.problem.guess_from_rollout(*candidate))
         return self.judge(sol, margin, time.perf_counter() - t0, hs, us)
 
     def judge(self, sol: OCPSolution, rollout_clearance: float, seconds: float, hs: np.ndarray,

@@ -122,6 +122,7 @@ class SwitchingSettings:
     feasibility_tolerance: float = 1e-3  # m, summed clearance violation
     certificate_margin: float | None = None  # m, the clearance the certificate asks of F's plans (None: Mode I's)
     certificate_warm_start: bool = False  # minimum violation from Mode I's fresh plan (controller.feasibility)
+    certificate_retry: bool = False  # minimum violation again from Mode I's fresh plan when IPOPT fails (feasibility)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm (_deadline)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     minimum_violation: bool = True  # False: the certificate's screens alone decide (F taken as empty if none certifies)
@@ -176,7 +177,8 @@ class SwitchingNMPC:
         certified = settings.mode1 if settings.certificate_margin is None else replace(
             settings.mode1, distance_margin=settings.certificate_margin)
         self.feasibility = FeasibilityTest(model, planes, certified, settings.feasibility_tolerance,
-                                           settings.certificate_search, settings.certificate_warm_start)
+                                           settings.certificate_search, settings.certificate_warm_start,
+                                           settings.certificate_retry)
         self._background = BackgroundCertificate(self.feasibility) if (
             settings.background_certificate and settings.switching and settings.minimum_violation) else None
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))

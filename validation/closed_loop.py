@@ -222,6 +222,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "mode1-only": lambda s: replace(s, switching=False),
     "braking": lambda s: s,
     "switching-no-deadline": lambda s: replace(s, deploy_deadline=False),  # F's emptiness alone switches
+    "switching-retry": lambda s: replace(s, certificate_retry=True),  # a second start for the certificate
     **{name: partial(_without_deadline, f) for name, f in _MEASURED_ON_SHARP.items()},
 }
 # The model each controller plans on, when it is not ModelOptions() (the default).
