@@ -206,9 +206,8 @@ class UVMSModel:
         speed (paper eq. Distance), in body order hull, links."""
         normal, offset = ca.SX.sym("n", 3), ca.SX.sym("D")
         shapes = [self.params.hull.superellipsoid] + [lk.superellipsoid for lk in self.params.arm.links]
-        d, dd = [], []
+        d, dd, s = [], [], self.options.support_smoothing
         for se, c, Rse, v, w in zip(shapes, kin["se_c"], kin["se_R"], kin["se_v"], kin["se_w"], strict=True):
-            s = self.options.support_smoothing
             d.append(plane_distance(ca.DM(se.semi_axes), se.eps1, se.eps2, c, Rse, normal, offset, s))
             dd.append(closing_speed(ca.DM(se.semi_axes), se.eps1, se.eps2, Rse, normal, v, w, s))
         self.distances = ca.Function("distances", [h, normal, offset], [ca.vertcat(*d)], ["h", "n", "D"], ["d"])

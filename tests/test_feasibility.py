@@ -169,8 +169,8 @@ def test_default_smoothing_removes_the_false_unavoidables(certificate, scene, pa
 @pytest.mark.slow
 def test_line_search_reaches_F_where_full_steps_do_not(sharp_searching) -> None:
     """On the sharp model (where the screen was measured): a step of the Kane-model closed loop with
-    every thruster dead (validation.kane_closed_loop's
-    thrusters-dead approach, t = 0.7 s; recorded in tests/data): only the arm's reaction can slow
+    every thruster dead (validation.kane_closed_loop's thrusters-dead approach, t = 0.7 s; recorded
+    in tests/data): only the arm's reaction can slow
     the hull. From the previous plan shifted, Mode I's SQP with full steps ends 20 iterations with
     its constraints violated by more than 1e-2 (m, N or N m); with the l1-merit line search it
     reaches a point of F (violation below FEASIBLE_VIOLATION). Oracle: that plan's inputs
@@ -195,9 +195,9 @@ def test_line_search_reaches_F_where_full_steps_do_not(sharp_searching) -> None:
 @pytest.mark.slow
 def test_warm_start_finds_F_where_the_default_start_fails(sharp, scene) -> None:
     """On the sharp model (where the warm start was measured): a certificate call of a MuJoCo closed
-    loop (wall-headon, mismatch seed 1, t = 1.9 s; recorded
-    in tests/data with Mode I's fresh plan): the screens fail, and the minimum-violation problem
-    from the braking rollout ends in an IPOPT failure, so the default certificate says F is empty
+    loop (wall-headon, mismatch seed 1, t = 1.9 s; recorded in tests/data with Mode I's fresh plan):
+    the screens fail, and the minimum-violation problem from the braking rollout ends in an IPOPT
+    failure, so the default certificate says F is empty
     (infinite violation) and the controller switched to Mode II there. Started from the fresh plan
     (`warm_start`), it finds a zero minimum violation. Oracle: that plan's inputs re-simulated by
     RK4 (20 substeps an interval, the recorded current) stay within bounds and keep every body at
