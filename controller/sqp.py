@@ -64,6 +64,7 @@ class SQPSettings:
     qp_iter_max: int = 50  # HPIPM interior-point iterations
     qp_mode: QPMode = QPMode.ROBUST
     qp_tol: float = 1e-6  # HPIPM's tolerances (ROBUST at 1e-8 and SPEED_ABS at 1e-9 stall at the iteration cap)
+    qp_mu0: float | None = 0.1  # HPIPM's initial barrier parameter (None: the mode's own; ROBUST's is 100)
     line_search: bool = False  # backtracking on the l1 merit function (else full steps)
     armijo: float = 1e-4  # sufficient-decrease fraction of the merit's directional derivative
     max_halvings: int = 10  # step halvings before the smallest step is taken anyway
@@ -101,7 +102,8 @@ def _block_sparsity(shape: tuple[int, int], blocks: list[tuple[int, int, int, in
 class StageSQP:
     """SQP on `problem` (no terminal functions; x_0 fully fixed to p[:nx]). The last n_alg entries
     of each stage's v are algebraic; the first nx + n_alg constraint rows are the dynamics (= 0).
-    The cost must be quadratic (its Hessian is evaluated once, at the first solve)."""
+    The cost must be a separable quadratic in the states and controls (its Hessian diagonal, without
+    entries on the algebraic variables; evaluated once, at the first solve)."""
 
     def __init__(self, problem: StageProblem, name: str, n_alg: int, settings: SQPSettings = SQPSettings()):
         pr = problem
@@ -123,7 +125,9 @@ class StageSQP:
                                                             ca.sum2(pr.cost.map(N)(S, PN))]))
         hess = fn[f"{name}_hess"].map(N)(S, PN, 1.0, ca.DM.zeros(pr.nc, N))
         self._cost_hessian = NumpyCall(ca.Function("cost_hessian", [S, P], [ca.densify(hess)]))
-        self._Hs: np.ndarray | None = None
+        self._h: np.ndarray | None = None  # the cost Hessian's diagonal per stage (N, ns)
+        nz = nx + nv
+        self._dep = np.r_[nz:nz + nx, nx + self.nu:nz]  # the eliminated (x_k+1, z_k) in s, in T's row order
         nq, nxu = (N + 1) * nx + N * self.nu, nx + self.nu
         na = N * (nx + self.ng)
         self._col = [k * nxu for k in range(N + 1)]  # where dx_k starts in the QP's variables
@@ -140,7 +144,8 @@ class StageSQP:
             "N": N, "nx": [nx] * (N + 1), "nu": [self.nu] * N + [0], "ng": [self.ng] * N + [0],
             "print_problem": False, "print_time": False, "error_on_fail": False,
             "hpipm": {"mode": settings.qp_mode.value, "iter_max": settings.qp_iter_max, **{
-                f"res_{r}_max": settings.qp_tol for r in "gbdm"}}})
+                f"res_{r}_max": settings.qp_tol for r in "gbdm"}} | (
+                    {} if settings.qp_mu0 is None else {"mu0": settings.qp_mu0})})
         # The QP through a wrapping function called on numpy buffers: H's and A's nonzeros go in as
         # they are (building DMs from them cost more than the QP's Riccati recursion). Calling the
         # conic itself through Function.buffer returns wrong steps from the second call on (CasADi
@@ -207,6 +212,24 @@ class StageSQP:
             alpha *= 0.5
         return alpha
 
+    def eliminate(self, J: np.ndarray, c: np.ndarray, grad: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The QP on (dx_k, du_k) of each stage from its linearization: constraint Jacobians J (N, nc,
+        ns) and values c (N, nc), cost gradients grad (N, ns). The columns of s are (x_k | u_k | z_k |
+        x_k+1); the dynamics rows give [dx_k+1; dz_k] = T [dx; du; 1], so s = E [dx; du; 1] with E =
+        [I 0; 0 I; T_z; T_x1]. Returns T (N, nd, nxu + 1), the Hessian E^T diag(h) E (N, nxu, nxu) and
+        gradient E^T (grad + diag(h) e) (N, nxu) of the cost, and the path rows' Jacobian J E (N, ng,
+        nxu) and values at [dx; du] = 0 (N, ng), written out on E's blocks (e: E's last column)."""
+        nd, nxu, dep, h = self.nd, self.pr.nx + self.nu, self._dep, self._h
+        rhs = np.concatenate([J[:, :nd, :nxu], c[:, :nd, None]], axis=2)
+        T = -np.linalg.solve(J[:, :nd, dep], rhs)
+        W, t = T[:, :, :-1], T[:, :, -1]
+        WT = W.transpose(0, 2, 1)
+        Hq = WT @ (h[:, dep, None] * W)
+        Hq[:, np.arange(nxu), np.arange(nxu)] += h[:, :nxu]
+        gq = grad[:, :nxu] + (WT @ (grad[:, dep] + h[:, dep] * t)[:, :, None])[:, :, 0]
+        Jc_dep = J[:, nd:, dep]
+        return T, Hq, gq, J[:, nd:, :nxu] + Jc_dep @ W, c[:, nd:] + (Jc_dep @ t[:, :, None])[:, :, 0]
+
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray, lbg: np.ndarray,
               ubg: np.ndarray, settings: SQPSettings | None = None) -> SQPResult:
         """From w0 with parameters p; lbw/ubw bound w, lbg/ubg bound the stage constraints (N nc,
@@ -216,39 +239,27 @@ class StageSQP:
         t0 = time.perf_counter()
         pr, s = self.pr, settings or self.settings
         rho = 0.0
-        N, nx, nv, nu, nd, ns, ng = pr.horizon, pr.nx, pr.nv, self.nu, self.nd, self.ns, self.ng
+        N, nx, nv, nd, ns, ng = pr.horizon, pr.nx, pr.nv, self.nd, self.ns, self.ng
         nz, nxu = nx + nv, nx + self.nu
         w = np.array(w0, float)
         lo_g = lbg.reshape(N, pr.nc)[:, nd:]
         hi_g = ubg.reshape(N, pr.nc)[:, nd:]
-        if self._Hs is None:
-            self._Hs = self._cost_hessian(self._stages(w), p)[0].reshape(N, ns, ns).transpose(0, 2, 1).copy()
-        Hs = self._Hs
+        if self._h is None:
+            Hs = self._cost_hessian(self._stages(w), p)[0].reshape(N, ns, ns)
+            h = np.diagonal(Hs, axis1=1, axis2=2).copy()
+            if np.count_nonzero(Hs) != np.count_nonzero(h) or np.any(h[:, nxu:nz]):
+                raise ValueError(f"{self.qp.name()}: the cost's Hessian must be diagonal and free of the algebraic "
+                                 "variables; allowed: sum_i h_i s_i^2 / 2 + linear terms")
+            self._h = h
         status, qp_iters, iterations = SolverStatus.MAX_ITER, 0, 0
         n_dyn = N * nx * nxu
-        ix, iu, iz, ix1 = (slice(0, nx), slice(nx, nxu), slice(nxu, nz), slice(nz, nz + nx))
         for iterations in range(1, s.max_iter + 1):  # noqa: B007 (the count is returned)
             out = self._lin(self._stages(w), p)
             c = out[0].reshape(N, pr.nc)
             J = out[1].reshape(N, ns, pr.nc).transpose(0, 2, 1)  # (N, nc, ns)
             grad = out[2].reshape(N, ns)
-            # eliminate (dx_k+1, dz_k): columns of s are (x_k | u_k | z_k | x_k+1)
-            Jd = J[:, :nd]
-            K = np.concatenate([Jd[:, :, ix1], Jd[:, :, iz]], axis=2)
-            rhs = np.concatenate([Jd[:, :, ix], Jd[:, :, iu], c[:, :nd, None]], axis=2)
-            T = -np.linalg.solve(K, rhs)  # (N, nd, nxu + 1): [dx1; dz] per [dx; du; 1]
-            E = np.zeros((N, ns, nxu + 1))
-            E[:, ix, :nx] = np.eye(nx)
-            E[:, iu, nx:nxu] = np.eye(nu)
-            E[:, iz] = T[:, nx:]
-            E[:, ix1] = T[:, :nx]
-            Eb, e = E[:, :, :-1], E[:, :, -1:]
-            EbT = Eb.transpose(0, 2, 1)
-            Hq = EbT @ Hs @ Eb
-            gq = (EbT @ (grad[:, :, None] + Hs @ e))[:, :, 0]
-            Jc = J[:, nd:]
-            CD = Jc @ Eb  # (N, ng, nxu)
-            ce = c[:, nd:] + (Jc @ e)[:, :, 0]
+            T, Hq, gq, CD, ce = self.eliminate(J, c, grad)
+            W, t = T[:, :, :-1], T[:, :, -1]
             # the QP in HPIPM's layout [dx_0, du_0, ..., dx_N]
             lba, uba = np.zeros((N, nx + ng)), np.zeros((N, nx + ng))
             lba[:, :nx] = uba[:, :nx] = -T[:, :nx, -1]
@@ -269,10 +280,8 @@ class StageSQP:
             d = x.copy()
             step = np.zeros_like(w)
             step[self._keep] = d
-            dxu = np.stack([d[self._col[k]:self._col[k] + nxu] for k in range(N)])
-            dz = (T[:, nx:, :-1] @ dxu[:, :, None])[:, :, 0] + T[:, nx:, -1]
-            for k in range(N):
-                step[k * nz + nxu:(k + 1) * nz] = dz[k]
+            dxu = d[:N * nxu].reshape(N, nxu)
+            step[:N * nz].reshape(N, nz)[:, nxu:] = (W[:, nx:] @ dxu[:, :, None])[:, :, 0] + t[:, nx:]
             if s.line_search:
                 lam = np.concatenate([lam_a, lam_x])
                 rho = max(rho, 2.0 * float(np.abs(lam).max(initial=0.0)))

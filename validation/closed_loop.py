@@ -176,16 +176,23 @@ def budgeted(s: SwitchingSettings) -> SwitchingSettings:
 
 # The controllers by name: how each changes the given SwitchingSettings ("braking" does not use them).
 # "switching-sharp" is the default as it was until 2026-12-01: the support function smoothed at 1e-7 m
-# (SHARP) and no deploy deadline. The variants after it are the A/B cases of issue 4's note, measured
-# then: they run on SHARP and without the deadline (unless they ask for it), as when they were measured;
+# (SHARP), no deploy deadline, HPIPM's own mu0 (100). The variants after it are the A/B cases of issue
+# 4's note, measured then: they run on SHARP, without the deadline (unless they ask for it) and with
+# mu0 = 100, as when they were measured (up to the last digits: the SQP's elimination was rewritten after);
 # all but "switching-sharp" build on the paper's Mode II hand-over (`paper`) unless they say otherwise
 # (bench/results/switch_variants, handover_*, mode2_cap100 and the others).
 SHARP = ModelOptions(support_smoothing=DELTA)
 
 
-def _without_deadline(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
-                      ) -> SwitchingSettings:
-    return variant(replace(s, deploy_deadline=False))
+def _robust_mu0(s: SwitchingSettings) -> SwitchingSettings:
+    """Mode I's QPs with HPIPM's own initial barrier parameter (ROBUST's 100), the default until the
+    second session of 2026-12-01."""
+    return replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp, qp_mu0=None)))
+
+
+def _as_measured(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
+                 ) -> SwitchingSettings:
+    return variant(_robust_mu0(replace(s, deploy_deadline=False)))
 
 
 _MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
@@ -221,9 +228,9 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching": lambda s: s,
     "mode1-only": lambda s: replace(s, switching=False),
     "braking": lambda s: s,
-    "switching-no-deadline": lambda s: replace(s, deploy_deadline=False),  # F's emptiness alone switches
+    "switching-no-deadline": lambda s: _robust_mu0(replace(s, deploy_deadline=False)),  # F's emptiness alone
     "switching-retry": lambda s: replace(s, certificate_retry=True),  # a second start for the certificate
-    **{name: partial(_without_deadline, f) for name, f in _MEASURED_ON_SHARP.items()},
+    **{name: partial(_as_measured, f) for name, f in _MEASURED_ON_SHARP.items()},
 }
 # The model each controller plans on, when it is not ModelOptions() (the default).
 MODEL_OPTIONS: dict[str, ModelOptions] = {name: SHARP for name in _MEASURED_ON_SHARP}
