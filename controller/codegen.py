@@ -60,6 +60,7 @@ class NumpyCall:
 
     def __init__(self, f: ca.Function):
         self.f = f
+        self._nnz_in = [f.nnz_in(i) for i in range(f.n_in())]
         self._buf, self._run = f.buffer()
         self.out = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
         for i, o in enumerate(self.out):
@@ -69,8 +70,8 @@ class NumpyCall:
         """The outputs' nonzeros (views of buffers the next call overwrites)."""
         keep = [np.ascontiguousarray(a, float) for a in args]  # alive until the call returns
         for i, a in enumerate(keep):
-            if a.size != self.f.nnz_in(i):
-                raise ValueError(f"{self.f.name()} input {i}: {a.size} values; allowed: {self.f.nnz_in(i)}")
+            if a.size != self._nnz_in[i]:
+                raise ValueError(f"{self.f.name()} input {i}: {a.size} values; allowed: {self._nnz_in[i]}")
             self._buf.set_arg(i, memoryview(a))
         self._run()
         return self.out
