@@ -9,6 +9,7 @@ dt = 0.1 s, default vehicle (4-joint arm). Variants in one run:
     from the shifted previous solution (controller.sqp);
   - ours, one iteration per period: the real-time iteration;
   - ours with HPIPM's own initial barrier parameter for ROBUST (mu0 = 100; the default is 0.1);
+  - ours with HPIPM's residual tolerances at 1e-4 instead of 1e-6 ("switching-loose-qp");
   - ours with HPIPM's SPEED_ABS QPs instead of ROBUST ones (controller.sqp.QPMode; its own mu0, 10);
   - ours, SQP to convergence (steps below 1e-3, at most 10 iterations);
   - ours, IPOPT: the same compiled stage derivatives, exact Hessian, warm-started from the shifted
@@ -90,6 +91,8 @@ VARIANTS = {
     "ours: SQP + HPIPM, 1 iteration per period (RTI)": ModeISettings(sqp=SQPSettings(max_iter=1)),
     "ours: SQP + HPIPM, ROBUST's own mu0 = 100 (the default until 2026-12-01)": ModeISettings(sqp=SQPSettings(
         qp_mu0=None)),
+    "ours: SQP + HPIPM, QP tolerances 1e-4 instead of 1e-6, 2 iterations per period": ModeISettings(sqp=SQPSettings(
+        qp_tol=1e-4)),
     "ours: SQP + HPIPM's SPEED_ABS QPs, 2 iterations per period": ModeISettings(sqp=SQPSettings(
         qp_mode=QPMode.SPEED_ABS, qp_mu0=None)),
     "ours: SQP + HPIPM to convergence (<= 10 iterations)": ModeISettings(sqp=SQPSettings(max_iter=10)),

@@ -127,6 +127,7 @@ class StageSQP:
         self._cost_hessian = NumpyCall(ca.Function("cost_hessian", [S, P], [ca.densify(hess)]))
         self._h: np.ndarray | None = None  # the cost Hessian's diagonal per stage (N, ns)
         nz = nx + nv
+        self._stage_idx = (np.arange(N)[:, None] * nz + np.arange(self.ns)).ravel()  # s_k = w[k nz:k nz + ns]
         self._dep = np.r_[nz:nz + nx, nx + self.nu:nz]  # the eliminated (x_k+1, z_k) in s, in T's row order
         nq, nxu = (N + 1) * nx + N * self.nu, nx + self.nu
         na = N * (nx + self.ng)
@@ -180,9 +181,7 @@ class StageSQP:
     # ------------------------------------------------------------------------------------------
     def _stages(self, w: np.ndarray) -> np.ndarray:
         """(ns, N) in column-major nonzero order: the stage vectors s_k one after the other."""
-        pr = self.pr
-        nz = pr.nx + pr.nv
-        return np.concatenate([w[k * nz:k * nz + self.ns] for k in range(pr.horizon)])
+        return w[self._stage_idx]
 
     def _violations(self, w: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> tuple[np.ndarray, float]:
         """(every constraint's violation >= 0: the stage constraints, then x_0 = p[:nx]; cost) at w."""

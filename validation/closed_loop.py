@@ -155,6 +155,7 @@ CONTACT_MARGIN = 0.02  # m: Modes II and III's body clearance in "switching-cont
 SOFT_TIP_WEIGHT = 4.0  # s/m: J_II's weight on the tip's speed at contact in "switching-soft-tip" (default 2)
 SCREEN_MARGIN = 0.015  # m: the clearance F's plans keep in "switching-screens" (Mode I's 2 cm less 5 mm)
 CERTIFICATE_MARGIN = 0.04  # m: the clearance F's plans keep in "switching-warm-margin" (default: Mode I's 2 cm)
+LOOSE_QP_TOL = 1e-4  # HPIPM's residual tolerances for Mode I's QPs in "switching-loose-qp" (default 1e-6)
 SOLVE_BUDGET = 0.07  # s: IPOPT's wall-clock limit on Modes II and III in "switching-realtime" (not reproducible)
 
 
@@ -230,6 +231,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "braking": lambda s: s,
     "switching-no-deadline": lambda s: _robust_mu0(replace(s, deploy_deadline=False)),  # F's emptiness alone
     "switching-retry": lambda s: replace(s, certificate_retry=True),  # a second start for the certificate
+    "switching-loose-qp": lambda s: replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp, qp_tol=LOOSE_QP_TOL))),
     **{name: partial(_as_measured, f) for name, f in _MEASURED_ON_SHARP.items()},
 }
 # The model each controller plans on, when it is not ModelOptions() (the default).
