@@ -68,8 +68,14 @@ acceptable level, or a feasible iterate at its cap) is not used. The fallback, r
 StepInfo.fallback: the previous plan of the same mode shifted by one interval (its second input)
 when there is one; otherwise Mode I brakes at full thrust (the
 certificate's rollout), Mode II brakes while the arm swings towards the wall (its initial guess)
-and Mode III brakes with the arm held rigid, so that a tip on the wall keeps pushing
-(controller.rollouts.BrakingPolicy).
+and Mode III, whose first solve (from Algorithm 2's cold start) failed, goes back to Mode II
+afresh from the measured state (`redeploy`, the default since 2026-12-01; Fallback.REDEPLOY, or
+Mode II's own fallback when its solve fails too; not in the paper). Without `redeploy` Mode III
+brakes with the arm held rigid, so that a tip on the wall keeps pushing
+(controller.rollouts.BrakingPolicy): in MuJoCo that rigid arm, its shoulder and elbow 1 to 2 cm
+off the wall while the hull came on, was how 3 of the default's 4 failures in 72 runs of the
+three hardest families began (bench/results/qp_mu0); with `redeploy`, 71 of 72 succeed, the 17
+runs where it acts changing and the other 55 not (bench/results/redeploy).
 """
 
 from __future__ import annotations
@@ -112,6 +118,7 @@ class Fallback(Enum):
     SHIFTED_PLAN = "shifted previous plan"
     GUESS = "initial guess (Mode I: maximum braking; Mode II: braking while the arm deploys)"
     HOLD = "maximum braking with the arm held rigid at its posture (Mode III)"
+    REDEPLOY = "Mode II afresh from the measured state (Mode III's first solve failed)"
 
 
 @dataclass(frozen=True)
@@ -124,6 +131,7 @@ class SwitchingSettings:
     certificate_warm_start: bool = False  # minimum violation from Mode I's fresh plan (controller.feasibility)
     certificate_retry: bool = False  # minimum violation again from Mode I's fresh plan when IPOPT fails (feasibility)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm (_deadline)
+    redeploy: bool = True  # Mode III's first solve failing: Mode II afresh instead of HOLD (module doc)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     minimum_violation: bool = True  # False: the certificate's screens alone decide (F taken as empty if none certifies)
     background_certificate: bool = False  # the minimum-violation problem on a second thread (module doc)
@@ -454,5 +462,9 @@ class SwitchingNMPC:
         if previous is not None:
             return (previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon, previous.h,
                     previous.u, previous.force, probe)
+        if self.settings.redeploy:  # a plan that keeps the links off the wall rather than a rigid arm
+            self.mode, self._horizon2, self._mode3_fell_back = Mode.II, self.settings.mode2.horizon, False
+            out = self._step_mode2(h)
+            return (out[0], out[1], Fallback.REDEPLOY if out[2] is Fallback.NONE else out[2], *out[3:])
         u = self._hold(h, h[6:6 + self.model.n_joints], self.current)
         return u, sol.status, Fallback.HOLD, sol.iterations, s.dt, s.horizon, h[None], u[None], None, probe

@@ -179,7 +179,8 @@ def budgeted(s: SwitchingSettings) -> SwitchingSettings:
 # "switching-sharp" is the default as it was until 2026-12-01: the support function smoothed at 1e-7 m
 # (SHARP), no deploy deadline, HPIPM's own mu0 (100). The variants after it are the A/B cases of issue
 # 4's note, measured then: they run on SHARP, without the deadline (unless they ask for it) and with
-# mu0 = 100, as when they were measured (up to the last digits: the SQP's elimination was rewritten after);
+# mu0 = 100 and without `redeploy`, as when they were measured (up to the last digits: the SQP's
+# elimination was rewritten after);
 # all but "switching-sharp" build on the paper's Mode II hand-over (`paper`) unless they say otherwise
 # (bench/results/switch_variants, handover_*, mode2_cap100 and the others).
 SHARP = ModelOptions(support_smoothing=DELTA)
@@ -193,7 +194,7 @@ def _robust_mu0(s: SwitchingSettings) -> SwitchingSettings:
 
 def _as_measured(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
                  ) -> SwitchingSettings:
-    return variant(_robust_mu0(replace(s, deploy_deadline=False)))
+    return variant(_robust_mu0(replace(s, deploy_deadline=False, redeploy=False)))
 
 
 _MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
@@ -229,9 +230,12 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching": lambda s: s,
     "mode1-only": lambda s: replace(s, switching=False),
     "braking": lambda s: s,
-    "switching-no-deadline": lambda s: _robust_mu0(replace(s, deploy_deadline=False)),  # F's emptiness alone
-    "switching-retry": lambda s: replace(s, certificate_retry=True),  # a second start for the certificate
-    "switching-loose-qp": lambda s: replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp, qp_tol=LOOSE_QP_TOL))),
+    # measured before Mode III's failed entry went back to Mode II (`redeploy`), so without it:
+    "switching-no-redeploy": lambda s: replace(s, redeploy=False),  # the default before it (bench/results/qp_mu0)
+    "switching-no-deadline": lambda s: _robust_mu0(replace(s, deploy_deadline=False, redeploy=False)),  # F alone
+    "switching-retry": lambda s: replace(s, certificate_retry=True, redeploy=False),  # the certificate's 2nd start
+    "switching-loose-qp": lambda s: replace(s, redeploy=False, mode1=replace(s.mode1, sqp=replace(
+        s.mode1.sqp, qp_tol=LOOSE_QP_TOL))),
     **{name: partial(_as_measured, f) for name, f in _MEASURED_ON_SHARP.items()},
 }
 # The model each controller plans on, when it is not ModelOptions() (the default).
