@@ -9,7 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from controller.switching import Fallback, SwitchReason
+from controller.mode3 import ModeIIISettings
+from controller.switching import Fallback, SwitchingSettings, SwitchReason
 from uvms import load_params, load_scene
 from validation.cli import main
 from validation.closed_loop import Outcome, run
@@ -220,22 +221,26 @@ def test_plots_are_written(tmp_path) -> None:
 
 @pytest.mark.slow
 def test_mode_three_failed_entry_redeploys_instead_of_holding_the_arm_rigid(tmp_path) -> None:
-    """wall-oblique in MuJoCo, the default mismatch drawn with seed 10, its first 2.5 s: Mode III's
-    first solve (Algorithm 2's cold start) fails at 1.6 s. Held rigid (the fallback without
-    `redeploy`), the stowed arm's shoulder and elbow, 1 to 2 cm off the wall, hit it as the hull
-    comes on: more than 1 N s of contact impulse on arm links other than the end-effector (measured
-    10.5 N s). With `redeploy` (the default) that step is Mode II afresh from the measured state
-    (Fallback.REDEPLOY), and only the tip touches: zero impulse on the hull and the other links.
+    """wall-oblique in MuJoCo, the default mismatch drawn with seed 10, its first 2.5 s, with Mode
+    III's IPOPT capped at 5 iterations so that every cold start (Algorithm 2's guess, 40 to 150
+    iterations) fails: a failed entry made certain (it came naturally in 17 of 72 runs before J_III's
+    clearance term, and hangs on the solvers' last digits). Held rigid (the fallback without
+    `redeploy`), the stowed arm's links hit the wall as the hull comes on: more than 1 N s of contact
+    impulse on arm links other than the end-effector (measured 20.3 N s). With `redeploy` (the
+    default) those steps are Mode II afresh from the measured state (Fallback.REDEPLOY), the rigid
+    fallback never runs, the hull stays off and the links take at most a tenth of that impulse
+    (measured 0.5 N s: Mode II's plans keep them off the wall, but Mode III never takes over).
     Oracle: MuJoCo's contacts."""
     out = {}
-    for controller in ("switching-no-redeploy", "switching"):
-        s = run(replace(get("wall-oblique"), duration=2.5), out=tmp_path / controller, mismatch=DEFAULT, seed=10,
-                controller=controller)
-        steps = json.loads((tmp_path / controller / "summary.json").read_text())["steps"]
-        out[controller] = s, {st["fallback"] for st in steps}
-    rigid, rigid_fallbacks = out["switching-no-redeploy"]
-    redeployed, fallbacks = out["switching"]
+    for redeploy in (False, True):
+        settings = SwitchingSettings(redeploy=redeploy, mode3=ModeIIISettings(max_iter=5))
+        s = run(replace(get("wall-oblique"), duration=2.5), out=tmp_path / str(redeploy), mismatch=DEFAULT, seed=10,
+                settings=settings)
+        steps = json.loads((tmp_path / str(redeploy) / "summary.json").read_text())["steps"]
+        out[redeploy] = s, {st["fallback"] for st in steps}
+    rigid, rigid_fallbacks = out[False]
+    redeployed, fallbacks = out[True]
     assert Fallback.HOLD.value in rigid_fallbacks and rigid["link_contact_impulse"] > 1.0
     assert Fallback.REDEPLOY.value in fallbacks and Fallback.HOLD.value not in fallbacks
-    assert redeployed["hull_contact_impulse"] == 0.0 and redeployed["link_contact_impulse"] == 0.0
-    assert redeployed["ee_peak_contact_force"] > 0.0
+    assert redeployed["hull_contact_impulse"] == 0.0
+    assert redeployed["link_contact_impulse"] <= rigid["link_contact_impulse"] / 10

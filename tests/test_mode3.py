@@ -91,3 +91,30 @@ def test_plan_keeps_contact_obeys_friction_and_slows_the_hull(contact_case, para
     d_dot = [float(np.asarray(model.closing_speeds(x, wall.normal, wall.offset)).ravel()[0])
              for x in (sol.h[-1], coast)]
     assert d_dot[0] > d_dot[1] + 0.1
+
+
+@pytest.mark.slow
+def test_clearance_term_pushes_a_hull_that_is_too_close_back_out(params, scene) -> None:
+    """J_III's clearance term (not in the paper): thrusters dead, the hull at rest 0.15 m from the
+    wall with the tip on it, a 0.25 m/s current onto the wall. Asked for 0.18 m, the 1 s plan ends
+    with the hull at least that far out, within half the relu's smoothing (its bias); J_III without
+    the term (weight 0; the same compiled code, the two are parameters) lets the hull end short of
+    it: the term is what pushes."""
+    model = UVMSModel(params, scene.water)
+    wall, current, n = scene.planes[0], np.array([0.25, 0.0, 0.0]), params.n_joints
+    lo, hi = params.input_bounds()
+    lo[:params.n_thrusters] = hi[:params.n_thrusters] = 0.0
+    h, _ = initial_state(params, Scenario("hold", "", gap=0.15, speed=0.0))
+    ends = []
+    for weight in (1.0, 0.0):
+        ocp = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings(hull_clearance=0.18, clearance_weight=weight))
+        ocp.limit_inputs(lo, hi)
+        h[6:6 + n] = ReachPosture(model, wall)(h)
+        h[6:6 + n] = ocp.onto_plane(h)
+        guess = ocp.contact_guess(h, np.zeros((ocp.settings.horizon, model.n_inputs)), None, current)
+        sol = ocp.solve(h, guess, current)
+        assert sol.status is SolverStatus.SUCCESS
+        ends.append(float(np.asarray(model.distances(sol.h[-1], wall.normal, wall.offset)).ravel()[0]))
+    s = ModeIIISettings()
+    assert ends[0] >= 0.18 - s.clearance_smoothing / 2
+    assert ends[1] < 0.18

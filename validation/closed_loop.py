@@ -179,8 +179,8 @@ def budgeted(s: SwitchingSettings) -> SwitchingSettings:
 # "switching-sharp" is the default as it was until 2026-12-01: the support function smoothed at 1e-7 m
 # (SHARP), no deploy deadline, HPIPM's own mu0 (100). The variants after it are the A/B cases of issue
 # 4's note, measured then: they run on SHARP, without the deadline (unless they ask for it) and with
-# mu0 = 100 and without `redeploy`, as when they were measured (up to the last digits: the SQP's
-# elimination was rewritten after);
+# mu0 = 100, without `redeploy` and with the paper's J_III, as when they were measured (up to the
+# last digits: the SQP's elimination was rewritten after, and J_III got its clearance parameters);
 # all but "switching-sharp" build on the paper's Mode II hand-over (`paper`) unless they say otherwise
 # (bench/results/switch_variants, handover_*, mode2_cap100 and the others).
 SHARP = ModelOptions(support_smoothing=DELTA)
@@ -192,9 +192,16 @@ def _robust_mu0(s: SwitchingSettings) -> SwitchingSettings:
     return replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp, qp_mu0=None)))
 
 
+def _approach_only(s: SwitchingSettings) -> SwitchingSettings:
+    """J_III as the paper has it (the hull's approach speed alone): no clearance term, the default
+    until the first session of 2026-12-02 (same compiled code, so equal only to the solvers' last
+    digits to the runs measured before it)."""
+    return replace(s, mode3=replace(s.mode3, clearance_weight=0.0))
+
+
 def _as_measured(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
                  ) -> SwitchingSettings:
-    return variant(_robust_mu0(replace(s, deploy_deadline=False, redeploy=False)))
+    return variant(_approach_only(_robust_mu0(replace(s, deploy_deadline=False, redeploy=False))))
 
 
 _MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
@@ -230,12 +237,18 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching": lambda s: s,
     "mode1-only": lambda s: replace(s, switching=False),
     "braking": lambda s: s,
-    # measured before Mode III's failed entry went back to Mode II (`redeploy`), so without it:
-    "switching-no-redeploy": lambda s: replace(s, redeploy=False),  # the default before it (bench/results/qp_mu0)
-    "switching-no-deadline": lambda s: _robust_mu0(replace(s, deploy_deadline=False, redeploy=False)),  # F alone
-    "switching-retry": lambda s: replace(s, certificate_retry=True, redeploy=False),  # the certificate's 2nd start
-    "switching-loose-qp": lambda s: replace(s, redeploy=False, mode1=replace(s.mode1, sqp=replace(
-        s.mode1.sqp, qp_tol=LOOSE_QP_TOL))),
+    # J_III's clearance term (controller.mode3; bench/results/hull_clearance):
+    "switching-approach-only": _approach_only,  # the paper's J_III: no clearance term
+    "switching-clearance-10cm": lambda s: replace(s, mode3=replace(s.mode3, hull_clearance=0.1)),
+    "switching-clearance-weak": lambda s: replace(s, mode3=replace(s.mode3, hull_clearance=0.1,
+                                                                    clearance_weight=0.3)),
+    # measured before Mode III's failed entry went back to Mode II (`redeploy`), so without it
+    # (and without J_III's clearance term):
+    "switching-no-redeploy": lambda s: _approach_only(replace(s, redeploy=False)),  # bench/results/qp_mu0
+    "switching-no-deadline": lambda s: _as_measured(lambda s: s, s),  # F alone
+    "switching-retry": lambda s: _approach_only(replace(s, certificate_retry=True, redeploy=False)),
+    "switching-loose-qp": lambda s: _approach_only(replace(s, redeploy=False, mode1=replace(s.mode1, sqp=replace(
+        s.mode1.sqp, qp_tol=LOOSE_QP_TOL)))),
     **{name: partial(_as_measured, f) for name, f in _MEASURED_ON_SHARP.items()},
 }
 # The model each controller plans on, when it is not ModelOptions() (the default).
