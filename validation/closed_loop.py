@@ -194,7 +194,7 @@ def _robust_mu0(s: SwitchingSettings) -> SwitchingSettings:
 
 def _approach_only(s: SwitchingSettings) -> SwitchingSettings:
     """J_III as the paper has it (the hull's approach speed alone): no clearance term, the default
-    until the first session of 2026-12-02 (same compiled code, so equal only to the solvers' last
+    until the third session of 2026-12-01 (same compiled code, so equal only to the solvers' last
     digits to the runs measured before it)."""
     return replace(s, mode3=replace(s.mode3, clearance_weight=0.0))
 
