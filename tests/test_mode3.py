@@ -105,12 +105,13 @@ def test_clearance_term_pushes_a_hull_that_is_too_close_back_out(params, scene) 
     lo, hi = params.input_bounds()
     lo[:params.n_thrusters] = hi[:params.n_thrusters] = 0.0
     h, _ = initial_state(params, Scenario("hold", "", gap=0.15, speed=0.0))
+    ocps = [ModeIIIOCP(model, scene.planes, 0, ModeIIISettings(hull_clearance=0.18, clearance_weight=w))
+            for w in (1.0, 0.0)]
+    h[6:6 + n] = ReachPosture(model, wall)(h)
+    h[6:6 + n] = ocps[0].onto_plane(h)
     ends = []
-    for weight in (1.0, 0.0):
-        ocp = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings(hull_clearance=0.18, clearance_weight=weight))
+    for ocp in ocps:
         ocp.limit_inputs(lo, hi)
-        h[6:6 + n] = ReachPosture(model, wall)(h)
-        h[6:6 + n] = ocp.onto_plane(h)
         guess = ocp.contact_guess(h, np.zeros((ocp.settings.horizon, model.n_inputs)), None, current)
         sol = ocp.solve(h, guess, current)
         assert sol.status is SolverStatus.SUCCESS

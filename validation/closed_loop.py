@@ -245,7 +245,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     # measured before Mode III's failed entry went back to Mode II (`redeploy`), so without it
     # (and without J_III's clearance term):
     "switching-no-redeploy": lambda s: _approach_only(replace(s, redeploy=False)),  # bench/results/qp_mu0
-    "switching-no-deadline": lambda s: _as_measured(lambda s: s, s),  # F alone
+    "switching-no-deadline": partial(_as_measured, lambda s: s),  # F alone
     "switching-retry": lambda s: _approach_only(replace(s, certificate_retry=True, redeploy=False)),
     "switching-loose-qp": lambda s: _approach_only(replace(s, redeploy=False, mode1=replace(s.mode1, sqp=replace(
         s.mode1.sqp, qp_tol=LOOSE_QP_TOL)))),
