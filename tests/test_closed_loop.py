@@ -13,7 +13,7 @@ from controller.mode3 import ModeIIISettings
 from controller.switching import Fallback, SwitchingSettings, SwitchReason
 from uvms import load_params, load_scene
 from validation.cli import main
-from validation.closed_loop import Outcome, run
+from validation.closed_loop import Outcome, judge, run
 from validation.mismatch import DEFAULT, NONE, draw, parse
 from validation.scenarios import SCENARIOS, get
 
@@ -129,6 +129,19 @@ def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     assert all(step["mode"] == "II" for step in switched) and int(s["switches"].split()[0]) == len(switched)
     entries = sum(a == "I" and b == "II" for a, b in zip(s["modes"], s["modes"][1:], strict=False))
     assert entries <= len(switched)
+
+
+def test_verdict_ranks_hull_then_links_then_a_tip_over_its_force_limit() -> None:
+    """Bookkeeping, not physics: the verdict names the worst thing that happened. A tip that takes
+    more than the jaws' rating (the parameter file's tip_force_limit, 200 N) is a failure even when
+    nothing else touched; exactly at the limit it is not (Mode III may plan up to it)."""
+    limit = load_params().arm.tip_force_limit
+    assert judge(0.0, 0.0, 0.0, limit, limit)[0] is Outcome.SUCCESS
+    assert judge(0.0, 0.0, 0.0, 0.0, limit)[0] is Outcome.SUCCESS
+    over = judge(0.0, 0.0, 0.0, limit + 1.0, limit)
+    assert over[0] is Outcome.TIP_OVERLOAD and f"{limit:.0f} N" in over[1]
+    assert judge(0.0, 0.0, 0.5, limit + 1.0, limit)[0] is Outcome.ARM_CONTACT
+    assert judge(0.1, 50.0, 0.5, limit + 1.0, limit)[0] is Outcome.HULL_CONTACT
 
 
 @pytest.mark.slow

@@ -18,7 +18,9 @@ is the same for every step (deterministic).
 
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
 tip, and only the tip, touch. A stowed arm that crashes into the wall before the hull does spares
-the hull but is still a collision ("arm contact"), not a success.
+the hull but is still a collision ("arm contact"), not a success. So is a tip whose peak normal force
+in the plant exceeds the jaws' rating, the parameter file's `tip_force_limit` ("tip overload"; the
+controller's Mode III bounds its planned force by the same number).
 """
 
 from __future__ import annotations
@@ -53,20 +55,26 @@ from validation.scenarios import Scenario
 
 
 class Outcome(Enum):
-    """A run's verdict: what touched an obstacle besides the end-effector tip."""
+    """A run's verdict: what touched an obstacle besides the end-effector tip, or how hard the tip did."""
 
     SUCCESS = "success"
+    TIP_OVERLOAD = "tip overload"
     ARM_CONTACT = "arm contact"
     HULL_CONTACT = "hull contact"
 
 
-def judge(hull_impulse: float, hull_peak: float, link_impulse: float, tip_peak: float) -> tuple[Outcome, str]:
+def judge(hull_impulse: float, hull_peak: float, link_impulse: float, tip_peak: float,
+          tip_limit: float = np.inf) -> tuple[Outcome, str]:
     """Verdict and reason from the summed contact-impulse magnitudes [N s] of the hull and of the arm
-    links other than the tip, and the peak normal forces [N] of the hull and of the tip."""
+    links other than the tip, the peak normal forces [N] of the hull and of the tip, and the force the
+    tip may take [N] (worst first: hull, other links, tip overload)."""
     if hull_impulse > 0.0:
         return Outcome.HULL_CONTACT, f"the hull touched with {hull_impulse:.3f} N s of impulse, peak {hull_peak:.0f} N"
     if link_impulse > 0.0:
         return Outcome.ARM_CONTACT, f"an arm link other than the end-effector touched with {link_impulse:.3f} N s"
+    if tip_peak > tip_limit:
+        return Outcome.TIP_OVERLOAD, f"only the end-effector touched, but with a peak of {tip_peak:.0f} N, over its " \
+                                     f"limit of {tip_limit:.0f} N"
     if tip_peak > 0.0:
         return Outcome.SUCCESS, f"only the end-effector touched (peak {tip_peak:.0f} N)"
     return Outcome.SUCCESS, "nothing touched an obstacle"
@@ -395,7 +403,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
             per_mode[m] = {"steps": len(times), "median_s": float(np.median(times)),
                                  "p95_s": float(np.percentile(times, 95)), "max_s": float(np.max(times))}
     thrust = max_thrust_along(params, -scene.planes[wall].normal)
-    outcome, reason = judge(hull_impulse, hull_peak, link_impulse, ee_peak)
+    outcome, reason = judge(hull_impulse, hull_peak, link_impulse, ee_peak, params.arm.tip_force_limit)
     summary = {
         "scenario": asdict(sc), "controller": controller,
         "mismatch": {"spec": mismatch, "seed": seed, "values": drawn}, "latency": latency,
