@@ -55,6 +55,7 @@ from controller.transcription import (
     ipopt_status,
     midpoint_residual,
     smooth_norm,
+    smooth_relu,
     tip_gap,
 )
 from uvms.scene import Plane
@@ -70,6 +71,8 @@ class ModeIISettings:
     eps: float = 0.05  # m, J_II's epsilon
     ee_speed_weight: float = 2.0  # s/m, J_II's w
     ee_speed_smoothing: float = 0.02  # m/s: |V_ee| taken as sqrt(|V_ee|^2 + this^2)
+    contact_speed: float | None = None  # m/s: J_II also pays for the tip closing on the plane faster at contact
+    contact_speed_weight: float = 100.0  # s^2/m^2, on the square of that excess (relu-smoothed at 1 cm/s)
     input_weight: float = 1e-7  # 1/N^2 regularization
     rate_weight: float = 1e-2  # s^2/rad^2, on the hull's angular and the joints' rates (no thrashing)
     distance_margin: float = 0.005  # m, bodies' clearance (the paper: >= 0)
@@ -119,6 +122,9 @@ class ModeIIOCP:
         d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
         v_ee = model.jacobian_ee(h1)[:3, :] @ h1[nv:]
         terminal_cost = 1 / (d0 + s.eps) + s.ee_speed_weight * smooth_norm(v_ee, s.ee_speed_smoothing)
+        if s.contact_speed is not None:  # the tip's approach speed along the normal, beyond contact_speed
+            excess = smooth_relu(-ca.dot(ca.DM(plane.normal), v_ee) - s.contact_speed, 0.01)
+            terminal_cost += s.contact_speed_weight * excess**2
         self._stage = (ca.Function("cost2", [st, P], [cost]), ca.Function("cons2", [st, P], [cons]),
                        ca.Function("tcost2", [xN, P], [terminal_cost]),
                        ca.Function("tcons2", [xN, P], [tip_gap(model, h1, plane)]))
