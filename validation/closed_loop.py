@@ -252,6 +252,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
                                                                     clearance_weight=0.3)),
     "switching-soft-contact": lambda s: replace(s, mode2=replace(s.mode2, contact_speed=0.2)),
     "switching-certified-release-now": lambda s: replace(s, certified_release=True),  # on today's defaults
+    "switching-mode3-short": lambda s: replace(s, mode3=replace(s.mode3, horizon=5)),  # a 0.5 s Mode III horizon
     # measured before Mode III's failed entry went back to Mode II (`redeploy`), so without it
     # (and without J_III's clearance term):
     "switching-no-redeploy": lambda s: _approach_only(replace(s, redeploy=False)),  # bench/results/qp_mu0
