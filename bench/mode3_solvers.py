@@ -4,9 +4,11 @@ Mode III is the slowest mode (bench/results/nmpc_modes.md): about 30 interior-po
 about 4 ms each. This benchmark replays the Mode III problems that MuJoCo closed loops actually
 posed, so that a change of solver or options is measured offline, side by side, on the same set.
 
-  python bench/mode3_solvers.py --record 2   # the problems of the default controller on wall-headon,
-                                             # wall-oblique and arm-deployed, seeds 0-1 (about 1 min)
+  python bench/mode3_solvers.py --record 2   # the problems of `--controller` (Mode III over 1 s by default)
+                                             # on wall-headon, wall-oblique and arm-deployed, seeds 0-1 (1 min)
   python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 15 min)
+  python bench/mode3_solvers.py --horizons 5,10   # the default options on the problems cut to each
+                                             # horizon (intervals; at most the recorded one), 4 min
 
 --record writes out/mode3_problems.npz (not committed, 1-2 MB; the closed loops are deterministic, so
 recording again gives the same problems on the same machine): per problem, the measured state, the primal guess
@@ -56,9 +58,9 @@ OPTIONS: dict[str, dict] = {
 }
 
 
-def _record_run(args: tuple[str, int]) -> list[dict]:
-    """The Mode III problems of one closed loop (default controller), as solve() received them."""
-    family, seed = args
+def _record_run(args: tuple[str, int, str]) -> list[dict]:
+    """The Mode III problems of one closed loop, as solve() received them."""
+    family, seed, controller = args
     import controller.mode3 as m3
     from validation.closed_loop import run
     from validation.scenarios import SCENARIOS
@@ -74,12 +76,12 @@ def _record_run(args: tuple[str, int]) -> list[dict]:
         return solve(self, h0, guess, current, duals)
 
     m3.ModeIIIOCP.solve = recording
-    run(SCENARIOS[family], seed=seed)
+    run(SCENARIOS[family], seed=seed, controller=controller)
     return calls
 
 
-def record(seeds: int, workers: int) -> None:
-    jobs = [(f, s) for f in FAMILIES for s in range(seeds)]
+def record(seeds: int, workers: int, controller: str) -> None:
+    jobs = [(f, s, controller) for f in FAMILIES for s in range(seeds)]
     calls: list[dict] = []
     with ProcessPoolExecutor(workers) as ex:
         for c in tqdm(ex.map(_record_run, jobs), total=len(jobs), desc="closed loops", unit="run"):
@@ -123,7 +125,7 @@ def evaluate() -> None:
     lines = ["# Mode III's IPOPT on recorded problems", "",
              f"`python bench/mode3_solvers.py` ({platform.machine()}, casadi {ca.__version__}, IPOPT with MUMPS). "
              f"{n} Mode III problems ({int(cold.sum())} cold starts from Algorithm 2's guess, {n - int(cold.sum())} "
-             "warm starts from the shifted plan and its multipliers) that the default controller posed in MuJoCo "
+             "warm starts from the shifted plan and its multipliers) that the controller posed in MuJoCo "
              f"closed loops of {', '.join(FAMILIES)}, seeds 0-{int(data['seeds']) - 1} (`--record`). Iterations and "
              "times: median / p95 over the problems; cost: the median of (cost - default's cost) over the "
              "problems both solve (IPOPT's acceptable level stops at dual infeasibility 1e-2, so costs differ "
@@ -145,16 +147,82 @@ def evaluate() -> None:
     print("\n".join(lines))
 
 
+def cut(ocp: ModeIIIOCP, guess: np.ndarray, duals: tuple[np.ndarray, np.ndarray] | None, recorded: int
+        ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """A recorded problem's primal guess and multipliers (of a `recorded`-interval plan) cut to the
+    first ocp.settings.horizon intervals and the state after them."""
+    N, nz, ns = ocp.settings.horizon, ocp.nz, ocp.ns
+    if N > recorded:
+        raise SystemExit(f"horizon {N} is longer than the recorded problems' {recorded}; allowed: at most {recorded}")
+    primal = np.concatenate([guess[:N * nz], guess[N * nz:N * nz + ns]])
+    if duals is None:
+        return primal, None
+    lg, lx = duals
+    nc = (len(lg) - ns) // recorded
+    return primal, (lg[:ns + N * nc], np.concatenate([lx[:N * nz], lx[N * nz:N * nz + ns]]))
+
+
+def horizons(values: list[int]) -> None:
+    """The default options on the recorded problems cut to each horizon, one horizon after the other."""
+    data, cold, model, scene = load_problems()
+    rows: dict[int, list[tuple]] = {}
+    for N in tqdm(values, desc="horizons", unit="horizon"):
+        ocps: dict[int, ModeIIIOCP] = {}
+        rows[N] = []
+        for i in range(len(cold)):
+            contact = int(data["contact"][i])
+            if contact not in ocps:
+                ocps[contact] = ModeIIIOCP(model, scene.planes, contact, ModeIIISettings(horizon=N))
+            ocp = ocps[contact]
+            nz = ocp.nz
+            recorded = (len(data["guess"][i]) - ocp.ns) // nz
+            ocp.limit_inputs(data["lo"][i], data["hi"][i])
+            guess, duals = cut(ocp, data["guess"][i], None if cold[i] else (data["lam_g"][i], data["lam_x"][i]),
+                               recorded)
+            sol = ocp.solve(data["h0"][i], guess, data["current"][i], duals)
+            rows[N].append((sol.status.usable, sol.iterations, sol.solve_time))
+    n = len(cold)
+    lines = ["# Mode III's horizon on recorded problems", "",
+             f"`python bench/mode3_solvers.py --horizons {','.join(map(str, values))}` ({platform.machine()}, casadi "
+             f"{ca.__version__}): the {n} recorded Mode III problems ({int(cold.sum())} cold), each cut to the first N "
+             "intervals (primal guess and multipliers), solved with Mode III's default options; one horizon after "
+             "the other. Iterations and times: median / p95.", "",
+             "| N (intervals of 0.1 s) | usable | iterations, warm | iterations, cold | time, warm [ms] | "
+             "time, cold [ms] |", "|---|---|---|---|---|---|"]
+    for N, r in rows.items():
+        ok, it, t = (np.array(c) for c in zip(*r, strict=True))
+
+        def mp(v: np.ndarray) -> str:
+            return f"{np.median(v):.0f} / {np.percentile(v, 95):.0f}" if len(v) else "-"
+
+        lines.append(f"| {N} | {int(ok.sum())}/{n} | {mp(it[~cold])} | {mp(it[cold])} | {mp(1e3 * t[~cold])} | "
+                     f"{mp(1e3 * t[cold])} |")
+    (OUT / "mode3_horizon_solves.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--record", type=int, metavar="SEEDS", help="record the problems of seeds 0..SEEDS-1 first")
     ap.add_argument("--workers", type=int, default=2, help="closed loops in parallel while recording")
+    ap.add_argument("--controller", default="switching-mode3-1s",
+                    help="the controller whose problems --record records (validation.closed_loop.CONTROLLERS)")
+    ap.add_argument("--horizons", help="comma-separated Mode III horizons to compare instead of the option sets")
     a = ap.parse_args(argv)
     if a.record is not None:
         if a.record < 1 or a.workers < 1:
             raise SystemExit(f"--record {a.record}, --workers {a.workers}; allowed: both >= 1")
-        record(a.record, a.workers)
-    evaluate()
+        record(a.record, a.workers, a.controller)
+    if a.horizons:
+        try:
+            values = [int(v) for v in a.horizons.split(",")]
+        except ValueError:
+            raise SystemExit(f"--horizons {a.horizons!r}; allowed: comma-separated integers >= 1") from None
+        if min(values) < 1:
+            raise SystemExit(f"--horizons {a.horizons!r}; allowed: comma-separated integers >= 1")
+        horizons(values)
+    else:
+        evaluate()
 
 
 if __name__ == "__main__":

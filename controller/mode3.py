@@ -34,9 +34,18 @@ succeed in all 72 with and without it. With 10 cm the thrusters-dead runs all su
 72 end with an arm link on the wall: the arm pushes the hull out fast enough to be released, and
 the modes cycle (203 switches against 118) (bench/results/hull_clearance).
 
-The horizon is 10 intervals (1 s) by default, not the paper's 20: with the tip held on the plane
+The horizon is 5 intervals (0.5 s) by default, not the paper's 20: with the tip held on the plane
 at every node, a 2 s plan must keep a drifting hull within the arm's reach and often has no
-solution.
+solution; 10 intervals (1 s) were the default until the fourth session of 2026-12-01. On the Mode
+III problems recorded in MuJoCo closed loops, 5 intervals take 17 IPOPT iterations (39 p95) from
+the warm starts against 32 (96), and about a quarter of the time (bench/results/
+mode3_horizon_solves.md). In MuJoCo (bench/results/
+mode3_horizon) thrusters-dead then succeeds in 11 of 12 runs against 10, cycling through Modes II
+and III far less (19 switches against 50: with 1 s to fill, the plan pushes the hull out fast enough
+to be released, and the current brings it back); the three hardest families in 65 of 72 against 67,
+with no hull or link contact either way: the arm-deployed tip's first impact peaks 11 N higher on
+average (every seed but one), which puts two more of those runs (206 and 210 N) over the jaws'
+200 N.
 """
 
 from __future__ import annotations
@@ -65,7 +74,7 @@ from uvms.scene import Plane
 
 @dataclass(frozen=True)
 class ModeIIISettings:
-    horizon: int = 10  # the paper uses N_p = 20 for all modes; 10 (1 s) solves reliably (see the note)
+    horizon: int = 5  # the paper uses N_p = 20 for all modes; 5 (0.5 s): see the module docstring
     dt: float = 0.1  # s
     friction: float = 0.5  # the controller's friction coefficient mu [-]
     friction_smoothing: float = 0.01  # m/s, delta

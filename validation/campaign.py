@@ -96,7 +96,7 @@ def markdown(rows: list[dict]) -> str:
         return f"{sum(r.get('verdict') == 'success' for r in sel)}/{len(sel)}"
 
     lines += ["", "Success (only the end-effector tip touched: zero contact impulse on the hull and on every "
-              "other arm link) per scenario family:", "",
+              "other arm link, and the tip's peak force within the jaws' limit) per scenario family:", "",
               "| scenario | " + " | ".join(controllers) + " |", "|" + "---|" * (len(controllers) + 1)]
     lines += [f"| {f} | " + " | ".join(rate([r for r in rows if r["scenario"] == f and r["controller"] == c])
                                        for c in controllers) + " |" for f in families]
