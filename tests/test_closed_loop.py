@@ -102,10 +102,10 @@ def test_wall_headon_switches_and_the_arm_protects_the_hull(tmp_path) -> None:
     other links, from MuJoCo's contacts), and the tip does touch with a peak force within the jaws'
     limit (params.arm.tip_force_limit). The return to Mode I is not asked: with the current pushing
     it to the wall and its horizontal thrusters lost, the vehicle may need the arm to hold it off to
-    the run's end, and on today's default it does (Mode III from 0.68 s on; until the second session
-    of 2026-12-01 the run went back to Mode I three times, I > II > III > I > II > III > I > II >
-    III). (Until 2026-12-01 this test ran without mismatch: README, "The smoothed model and the
-    deploy deadline".) A headless video is written (EGL)."""
+    the run's end, and on today's default it does (Modes II and III from 0.4 s on, Mode III alone
+    from 1.48 s; until the second session of 2026-12-01 the run went back to Mode I three times,
+    I > II > III > I > II > III > I > II > III). (Until 2026-12-01 this test ran without mismatch:
+    README, "The smoothed model and the deploy deadline".) A headless video is written (EGL)."""
     video = tmp_path / "run.mp4"
     s = run(replace(get("wall-headon"), duration=2.5), out=tmp_path, video=video, mismatch=DEFAULT, seed=0)
     assert s["modes"][:3] == ["I", "II", "III"]
