@@ -104,6 +104,11 @@ def load_problems() -> tuple[dict[str, np.ndarray], np.ndarray, UVMSModel, Scene
     return data, np.isnan(data["lam_g"][:, 0]), UVMSModel(load_params(), scene.water), scene
 
 
+def mp(v: np.ndarray) -> str:
+    """median / p95 of v, rounded ("-" when empty)."""
+    return f"{np.median(v):.0f} / {np.percentile(v, 95):.0f}" if len(v) else "-"
+
+
 def evaluate() -> None:
     data, cold, model, scene = load_problems()
     n = len(cold)
@@ -137,9 +142,6 @@ def evaluate() -> None:
         ok, it, t, cost = (np.array(c) for c in zip(*rows, strict=True))
         both = ok & np.array([b[0] for b in base])
         dc = np.median(cost[both] - np.array([b[3] for b in base])[both]) if both.any() else np.nan
-
-        def mp(v: np.ndarray) -> str:
-            return f"{np.median(v):.0f} / {np.percentile(v, 95):.0f}" if len(v) else "-"
 
         lines.append(f"| {name} | {int(ok.sum())}/{n} | {mp(it[~cold])} | {mp(it[cold])} | {mp(1e3 * t[~cold])} | "
                      f"{mp(1e3 * t[cold])} | {1e3 * t.sum() / max(it.sum(), 1):.1f} | {dc:+.1e} |")
@@ -191,9 +193,6 @@ def horizons(values: list[int]) -> None:
              "time, cold [ms] |", "|---|---|---|---|---|---|"]
     for N, r in rows.items():
         ok, it, t = (np.array(c) for c in zip(*r, strict=True))
-
-        def mp(v: np.ndarray) -> str:
-            return f"{np.median(v):.0f} / {np.percentile(v, 95):.0f}" if len(v) else "-"
 
         lines.append(f"| {N} | {int(ok.sum())}/{n} | {mp(it[~cold])} | {mp(it[cold])} | {mp(1e3 * t[~cold])} | "
                      f"{mp(1e3 * t[cold])} |")
