@@ -130,6 +130,7 @@ class SwitchingSettings:
     certificate_margin: float | None = None  # m, the clearance the certificate asks of F's plans (None: Mode I's)
     certificate_warm_start: bool = False  # minimum violation from Mode I's fresh plan (controller.feasibility)
     certificate_retry: bool = False  # minimum violation again from Mode I's fresh plan when IPOPT fails (feasibility)
+    certificate_max_iter: int = 300  # the minimum-violation problem's IPOPT iteration cap (controller.feasibility)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm (_deadline)
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh instead of HOLD (module doc)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
@@ -186,7 +187,7 @@ class SwitchingNMPC:
             settings.mode1, distance_margin=settings.certificate_margin)
         self.feasibility = FeasibilityTest(model, planes, certified, settings.feasibility_tolerance,
                                            settings.certificate_search, settings.certificate_warm_start,
-                                           settings.certificate_retry)
+                                           settings.certificate_retry, settings.certificate_max_iter)
         self._background = BackgroundCertificate(self.feasibility) if (
             settings.background_certificate and settings.switching and settings.minimum_violation) else None
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))

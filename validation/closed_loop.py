@@ -252,6 +252,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "mode1-only": lambda s: replace(s, switching=False),
     "braking": lambda s: s,
     "switching-mode3-1s": _mode3_1s,  # Mode III over 1 s (bench/results/mode3_horizon)
+    "switching-certificate-cap100": lambda s: replace(s, certificate_max_iter=100),  # its IPOPT capped at 100
     # measured with Mode III over 1 s, so with it:
     # J_III's clearance term (controller.mode3; bench/results/hull_clearance):
     "switching-approach-only": lambda s: _approach_only(_mode3_1s(s)),  # the paper's J_III: no clearance term
