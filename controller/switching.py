@@ -130,7 +130,7 @@ class SwitchingSettings:
     certificate_margin: float | None = None  # m, the clearance the certificate asks of F's plans (None: Mode I's)
     certificate_warm_start: bool = False  # minimum violation from Mode I's fresh plan (controller.feasibility)
     certificate_retry: bool = False  # minimum violation again from Mode I's fresh plan when IPOPT fails (feasibility)
-    certificate_max_iter: int = 100  # the minimum-violation problem's IPOPT cap (controller.feasibility; 300 before)
+    certificate_max_iter: int = 300  # the minimum-violation problem's IPOPT iteration cap (controller.feasibility)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm (_deadline)
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh instead of HOLD (module doc)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)

@@ -207,16 +207,15 @@ def _approach_only(s: SwitchingSettings) -> SwitchingSettings:
     return replace(s, mode3=replace(s.mode3, clearance_weight=0.0))
 
 
-def _mode3_1s_cap300(s: SwitchingSettings) -> SwitchingSettings:
-    """Mode III over 10 intervals (1 s) and the certificate's minimum-violation IPOPT capped at 300
-    iterations: both the defaults until the fourth session of 2026-12-01 (controller.mode3,
-    controller.feasibility; bench/results/mode3_horizon, bench/results/certificate_cap)."""
-    return replace(s, certificate_max_iter=300, mode3=replace(s.mode3, horizon=10))
+def _mode3_1s(s: SwitchingSettings) -> SwitchingSettings:
+    """Mode III over 10 intervals (1 s), the default until the fourth session of 2026-12-01
+    (controller.mode3; bench/results/mode3_horizon)."""
+    return replace(s, mode3=replace(s.mode3, horizon=10))
 
 
 def _as_measured(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
                  ) -> SwitchingSettings:
-    return variant(_approach_only(_robust_mu0(_mode3_1s_cap300(replace(s, deploy_deadline=False, redeploy=False)))))
+    return variant(_approach_only(_robust_mu0(_mode3_1s(replace(s, deploy_deadline=False, redeploy=False)))))
 
 
 _MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
@@ -252,22 +251,22 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching": lambda s: s,
     "mode1-only": lambda s: replace(s, switching=False),
     "braking": lambda s: s,
-    "switching-mode3-1s": _mode3_1s_cap300,  # the default before the fourth session of 2026-12-01
-    "switching-certificate-cap300": lambda s: replace(s, certificate_max_iter=300),  # bench/results/certificate_cap
-    # measured with Mode III over 1 s and the certificate capped at 300, so with them:
+    "switching-mode3-1s": _mode3_1s,  # the default before the fourth session of 2026-12-01
+    "switching-certificate-cap100": lambda s: replace(s, certificate_max_iter=100),  # bench/results/certificate_cap
+    # measured with Mode III over 1 s, so with it:
     # J_III's clearance term (controller.mode3; bench/results/hull_clearance):
-    "switching-approach-only": lambda s: _approach_only(_mode3_1s_cap300(s)),  # the paper's J_III: no clearance term
-    "switching-clearance-10cm": lambda s: _mode3_1s_cap300(replace(s, mode3=replace(s.mode3, hull_clearance=0.1))),
-    "switching-clearance-weak": lambda s: _mode3_1s_cap300(replace(s, mode3=replace(s.mode3, hull_clearance=0.1,
+    "switching-approach-only": lambda s: _approach_only(_mode3_1s(s)),  # the paper's J_III: no clearance term
+    "switching-clearance-10cm": lambda s: _mode3_1s(replace(s, mode3=replace(s.mode3, hull_clearance=0.1))),
+    "switching-clearance-weak": lambda s: _mode3_1s(replace(s, mode3=replace(s.mode3, hull_clearance=0.1,
                                                                               clearance_weight=0.3))),
-    "switching-soft-contact": lambda s: _mode3_1s_cap300(replace(s, mode2=replace(s.mode2, contact_speed=0.2))),
-    "switching-certified-release-now": lambda s: _mode3_1s_cap300(replace(s, certified_release=True)),
+    "switching-soft-contact": lambda s: _mode3_1s(replace(s, mode2=replace(s.mode2, contact_speed=0.2))),
+    "switching-certified-release-now": lambda s: _mode3_1s(replace(s, certified_release=True)),
     # measured before Mode III's failed entry went back to Mode II (`redeploy`), so without it
     # (and without J_III's clearance term):
-    "switching-no-redeploy": lambda s: _approach_only(_mode3_1s_cap300(replace(s, redeploy=False))),  # results/qp_mu0
+    "switching-no-redeploy": lambda s: _approach_only(_mode3_1s(replace(s, redeploy=False))),  # results/qp_mu0
     "switching-no-deadline": partial(_as_measured, lambda s: s),  # F alone
-    "switching-retry": lambda s: _approach_only(_mode3_1s_cap300(replace(s, certificate_retry=True, redeploy=False))),
-    "switching-loose-qp": lambda s: _approach_only(_mode3_1s_cap300(replace(s, redeploy=False, mode1=replace(
+    "switching-retry": lambda s: _approach_only(_mode3_1s(replace(s, certificate_retry=True, redeploy=False))),
+    "switching-loose-qp": lambda s: _approach_only(_mode3_1s(replace(s, redeploy=False, mode1=replace(
         s.mode1, sqp=replace(s.mode1.sqp, qp_tol=LOOSE_QP_TOL))))),
     **{name: partial(_as_measured, f) for name, f in _MEASURED_ON_SHARP.items()},
 }
