@@ -193,7 +193,6 @@ def horizons(values: list[int]) -> None:
              "time, cold [ms] |", "|---|---|---|---|---|---|"]
     for N, r in rows.items():
         ok, it, t = (np.array(c) for c in zip(*r, strict=True))
-
         lines.append(f"| {N} | {int(ok.sum())}/{n} | {mp(it[~cold])} | {mp(it[cold])} | {mp(1e3 * t[~cold])} | "
                      f"{mp(1e3 * t[cold])} |")
     (OUT / "mode3_horizon_solves.md").write_text("\n".join(lines) + "\n")

@@ -58,6 +58,8 @@ from controller.rollouts import BrakingPolicy, rollout, simulate
 from controller.transcription import FEASIBLE_VIOLATION
 from uvms.scene import Plane
 
+MIN_VIOLATION_MAX_ITER = 300  # the minimum-violation problem's IPOPT iteration cap (FeasibilityTest's max_iter)
+
 
 class Verdict(Enum):
     FEASIBLE = "feasible"
@@ -95,7 +97,7 @@ class FeasibilityTest:
 
     def __init__(self, model: UVMSModel, planes: Sequence[Plane], settings: ModeISettings | None = None,
                  tolerance: float = 1e-3, search_iterations: int = 0, warm_start: bool = False,
-                 retry: bool = False, max_iter: int = 300):
+                 retry: bool = False, max_iter: int = MIN_VIOLATION_MAX_ITER):
         """`search_iterations`: the line-search SQP screen's budget (0: no such screen; 20 is the
         tested value; it also needs settings.compiled). `warm_start`: the minimum-violation problem
         starts from the fresh Mode I plan when there is one (the module's docstring). `retry`: when

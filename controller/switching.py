@@ -88,7 +88,7 @@ from enum import Enum
 import numpy as np
 
 from controller.background_certificate import BackgroundCertificate
-from controller.feasibility import Certificate, FeasibilityTest, Method, Verdict
+from controller.feasibility import MIN_VIOLATION_MAX_ITER, Certificate, FeasibilityTest, Method, Verdict
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
@@ -130,7 +130,7 @@ class SwitchingSettings:
     certificate_margin: float | None = None  # m, the clearance the certificate asks of F's plans (None: Mode I's)
     certificate_warm_start: bool = False  # minimum violation from Mode I's fresh plan (controller.feasibility)
     certificate_retry: bool = False  # minimum violation again from Mode I's fresh plan when IPOPT fails (feasibility)
-    certificate_max_iter: int = 300  # the minimum-violation problem's IPOPT iteration cap (controller.feasibility)
+    certificate_max_iter: int = MIN_VIOLATION_MAX_ITER  # the minimum-violation problem's IPOPT cap (feasibility)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm (_deadline)
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh instead of HOLD (module doc)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)

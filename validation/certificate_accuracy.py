@@ -49,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.feasibility import Certificate, FeasibilityTest, Method, Verdict
+from controller.feasibility import MIN_VIOLATION_MAX_ITER, Certificate, FeasibilityTest, Method, Verdict
 from controller.mode1 import ModeIOCP
 from controller.model import UVMSModel
 from controller.rollouts import simulate
@@ -257,7 +257,7 @@ def labelled(cs: Certificates, gap: float, angle: float, threshold: float, bank:
 
 
 def evaluate(approaches=((0.02, 0.0), (0.03, 0.0), (0.01, 30.0), (0.02, 30.0)),
-             braking_approaches=((0.15, 0.0), (0.2, 0.0), (0.2, 30.0)), max_iter: int = 300,
+             braking_approaches=((0.15, 0.0), (0.2, 0.0), (0.2, 30.0)), max_iter: int = MIN_VIOLATION_MAX_ITER,
              ) -> tuple[list[Case], list[Case], list[str]]:
     """The four certificates on each labelled case around F's threshold (`approaches`) and around
     the braking rollout's (`braking_approaches`: the issue's set), and the approaches whose F labels
@@ -323,16 +323,18 @@ def summary(cases: Sequence[Case]) -> str:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description="The feasibility certificate on labelled approaches.")
-    ap.add_argument("--max-iter", type=int, default=300,
-                    help="the minimum-violation problem's IPOPT iteration cap (default 300, the controller's)")
+    ap.add_argument("--max-iter", type=int, default=MIN_VIOLATION_MAX_ITER,
+                    help=f"the minimum-violation problem's IPOPT iteration cap (default {MIN_VIOLATION_MAX_ITER}, "
+                         "the controller's)")
     a = ap.parse_args(argv)
     if a.max_iter < 1:
         raise SystemExit(f"--max-iter {a.max_iter}; allowed: an integer >= 1")
     cases, braking, non_monotone = evaluate(max_iter=a.max_iter)
-    name = "certificate_accuracy.md" if a.max_iter == 300 else f"certificate_accuracy_cap{a.max_iter}.md"
-    capped = "" if a.max_iter == 300 else (f"`python -m validation.certificate_accuracy --max-iter {a.max_iter}`: the "
+    default = a.max_iter == MIN_VIOLATION_MAX_ITER
+    name = "certificate_accuracy.md" if default else f"certificate_accuracy_cap{a.max_iter}.md"
+    capped = "" if default else (f"`python -m validation.certificate_accuracy --max-iter {a.max_iter}`: the "
                                             f"minimum-violation problem's IPOPT capped at {a.max_iter} iterations "
-                                            "instead of 300.\n\n")
+                                            f"instead of {MIN_VIOLATION_MAX_ITER}.\n\n")
     text = (
         "# Feasibility certificate accuracy\n\n" + capped +
         "Each certificate is asked as at the closed loop's first Mode I step (no previous plan, Mode I's fresh plan "
