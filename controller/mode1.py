@@ -17,7 +17,7 @@ DistConstraints), plus the end-effector tip n.x_ee + D >= tip radius + margin.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 
@@ -26,8 +26,9 @@ import numpy as np
 
 from controller.model import UVMSModel
 from controller.sqp import SQPSettings, StageSQP
+from controller.iterate_stop import IterateStop
 from controller.stage_nlp import StageProblem, build_solver
-from controller.transcription import SolverStatus, clearances, ipopt_status, midpoint_residual
+from controller.transcription import FEASIBLE_VIOLATION, SolverStatus, clearances, ipopt_status, midpoint_residual
 from uvms.scene import Plane
 
 
@@ -92,10 +93,15 @@ class ModeIOCP:
     """The Mode I NLP, built once for a model, a set of planes and settings."""
 
     def __init__(self, model: UVMSModel, planes: Sequence[Plane], settings: ModeISettings = ModeISettings(),
-                 min_violation: bool = False):
+                 min_violation: bool = False, stop: Callable[[OCPSolution, np.ndarray], bool] | None = None):
         """`min_violation=True` builds the feasibility problem instead: every clearance constraint
         gets an L1 slack sigma >= 0 and the cost is sum(sigma) [m] (plus 1e-6 of the tracking cost
-        as regularization); its optimum is 0 exactly when Mode I's feasible set is non-empty."""
+        as regularization); its optimum is 0 exactly when Mode I's feasible set is non-empty.
+        `stop` (IPOPT only): stop at the first iterate that satisfies the constraints within
+        FEASIBLE_VIOLATION and for which stop(its solution, the parameters (h0, h_ref, current))
+        holds; it is returned with status FEASIBLE (controller.iterate_stop)."""
+        if stop is not None and settings.solver is Solver.SQP and not min_violation:
+            raise ValueError("stop needs IPOPT; allowed: stop=None with solver SQP")
         self.model, self.planes, self.settings, self.min_violation = model, tuple(planes), settings, min_violation
         p = model.params
         ns, nu, nv, n = model.n_states, model.n_inputs, model.n_speeds, model.n_joints
@@ -130,6 +136,14 @@ class ModeIOCP:
                  "warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
                  "mu_init": 1e-3, "sb": "yes", **barrier, **settings.ipopt_options}
         nw = N * self._nz + ns
+        ng = ns + N * (ns + nv + self.n_clear)
+        self._P = np.zeros(2 * ns + 3)  # the parameters of the running solve (for the stop's check)
+        self.stop = None
+        if stop is not None:
+            self.stop = IterateStop(nw, ng, lambda w, g: self._violation(g) <= FEASIBLE_VIOLATION and stop(
+                self._solution(w, SolverStatus.FEASIBLE, np.nan, -1, np.nan, np.zeros(0), np.zeros(0),
+                               self._violation(g)), self._P))
+        callback = {"iteration_callback": self.stop} if self.stop is not None else {}
         if settings.compiled:
             problem = StageProblem(nx=ns, nv=self._nz - ns, horizon=N, np=2 * ns + 3, cost=stage_cost,
                                    constraints=stage_constraints)
@@ -137,7 +151,7 @@ class ModeIOCP:
             if settings.solver is Solver.SQP and not min_violation:  # (the slacks' problem: IPOPT)
                 self.solver, self.sqp = None, StageSQP(problem, name, n_alg=nv, settings=settings.sqp)
             else:
-                self.solver, self.sqp = build_solver(problem, name, ipopt), None
+                self.solver, self.sqp = build_solver(problem, name, ipopt, options=callback), None
         else:
             self.sqp = None
             w, Pn = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + 3)
@@ -145,7 +159,7 @@ class ModeIOCP:
             J = sum(stage_cost(sk, Pn) for sk in stages)
             g = ca.vertcat(w[:ns] - Pn[:ns], *[stage_constraints(sk, Pn) for sk in stages])
             self.solver = ca.nlpsol("mode1", "ipopt", {"x": w, "p": Pn, "f": J, "g": g},
-                                    {"print_time": False, "ipopt": ipopt})
+                                    {"print_time": False, "ipopt": ipopt, **callback})
         # bounds
         lo, hi = p.input_bounds()
         self.lbw, self.ubw = np.full(nw, -np.inf), np.full(nw, np.inf)
@@ -158,7 +172,6 @@ class ModeIOCP:
             if k < N:
                 self.lbw[i + ns:i + ns + nu], self.ubw[i + ns:i + ns + nu] = lo, hi
                 self.lbw[i + ns + nu + nv:i + self._nz] = 0.0  # slacks
-        ng = ns + N * (ns + nv + self.n_clear)
         self.lbg, self.ubg = np.zeros(ng), np.zeros(ng)
         idx = ns
         for _ in range(N):
@@ -166,6 +179,10 @@ class ModeIOCP:
             self.lbg[idx:idx + self.n_clear] = settings.distance_margin
             self.ubg[idx:idx + self.n_clear] = np.inf
             idx += self.n_clear
+
+    def _violation(self, g: np.ndarray) -> float:
+        """Largest violation of the constraint bounds by constraint values g."""
+        return float(max(np.max(self.lbg - g), np.max(g - self.ubg), 0.0))
 
     def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
@@ -233,14 +250,19 @@ class ModeIOCP:
         args = {"x0": w0, "p": P, "lbx": self.lbw, "ubx": self.ubw, "lbg": self.lbg, "ubg": self.ubg}
         if lam_g is not None:
             args.update(lam_g0=lam_g, lam_x0=lam_x)
+        self._P = P
+        if self.stop is not None:
+            self.stop.fired = False
         t0 = time.perf_counter()
         r = self.solver(**args)
         elapsed = time.perf_counter() - t0
         st = self.solver.stats()
         inf_pr = st.get("iterations", {}).get("inf_pr", [np.nan])
-        return self._solution(np.asarray(r["x"]).ravel(), ipopt_status(st), elapsed, int(st["iter_count"]),
-                              float(r["f"]), np.asarray(r["lam_g"]).ravel(), np.asarray(r["lam_x"]).ravel(),
-                              float(inf_pr[-1]) if inf_pr else np.nan)
+        status, violation = ipopt_status(st), float(inf_pr[-1]) if inf_pr else np.nan
+        if self.stop is not None and self.stop.fired:
+            status, violation = SolverStatus.FEASIBLE, self._violation(np.asarray(r["g"]).ravel())
+        return self._solution(np.asarray(r["x"]).ravel(), status, elapsed, int(st["iter_count"]),
+                              float(r["f"]), np.asarray(r["lam_g"]).ravel(), np.asarray(r["lam_x"]).ravel(), violation)
 
     def _solution(self, w: np.ndarray, status: SolverStatus, elapsed: float, iterations: int, cost: float,
                   lam_g: np.ndarray, lam_x: np.ndarray, violation: float) -> OCPSolution:

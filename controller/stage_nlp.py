@@ -101,10 +101,10 @@ def _derive(pr: StageProblem, name: str) -> list[ca.Function]:
 
 
 def build_solver(problem: StageProblem, name: str, ipopt_options: dict,
-                 functions: dict[str, ca.Function] | None = None) -> ca.Function:
+                 functions: dict[str, ca.Function] | None = None, options: dict | None = None) -> ca.Function:
     """IPOPT on the stage problem with compiled, block-assembled derivatives: `functions` from
     `stage_functions` (derived here when not given; deriving them costs about 1 s, assembling the
-    NLP from them about 10 ms)."""
+    NLP from them about 10 ms). `options`: more of nlpsol's options (e.g. an iteration_callback)."""
     pr = problem
     nx, nv, N, nz = pr.nx, pr.nv, pr.horizon, pr.nx + pr.nv
     ns, nt = 2 * nx + nv, pr.n_terminal
@@ -149,5 +149,4 @@ def build_solver(problem: StageProblem, name: str, ipopt_options: dict,
                            ["triu_hess_gamma_x_x"])
     return ca.nlpsol(name, "ipopt", {"x": w, "p": P, "f": f, "g": g},
                      {"jac_g": jac_g, "grad_f": grad_f, "hess_lag": hess_lag, "print_time": False, "calc_lam_p": False,
-                      "calc_lam_x": False,
-                      "ipopt": ipopt_options})
+                      "calc_lam_x": False, "ipopt": ipopt_options, **(options or {})})

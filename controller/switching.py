@@ -131,6 +131,7 @@ class SwitchingSettings:
     certificate_warm_start: bool = False  # minimum violation from Mode I's fresh plan (controller.feasibility)
     certificate_retry: bool = False  # minimum violation again from Mode I's fresh plan when IPOPT fails (feasibility)
     certificate_max_iter: int = MIN_VIOLATION_MAX_ITER  # the minimum-violation problem's IPOPT cap (feasibility)
+    certificate_stop: bool = True  # stop that IPOPT at its first point of F (controller.feasibility, iterate_stop)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm (_deadline)
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh instead of HOLD (module doc)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
@@ -187,7 +188,8 @@ class SwitchingNMPC:
             settings.mode1, distance_margin=settings.certificate_margin)
         self.feasibility = FeasibilityTest(model, planes, certified, settings.feasibility_tolerance,
                                            settings.certificate_search, settings.certificate_warm_start,
-                                           settings.certificate_retry, settings.certificate_max_iter)
+                                           settings.certificate_retry, settings.certificate_max_iter,
+                                           settings.certificate_stop)
         self._background = BackgroundCertificate(self.feasibility) if (
             settings.background_certificate and settings.switching and settings.minimum_violation) else None
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))

@@ -130,6 +130,8 @@ def test_search_screen_avoids_a_false_unavoidable(sharp, sharp_searching, params
     """0.5 m/s with the hull's front 10 cm from the wall, on the sharp model (1e-7 m smoothing). The
     minimum-violation IPOPT fails on this problem (an infinite violation), so the default certificate
     takes the safe side and says 'unavoidable'; the line-search SQP's plan shows that F is not empty.
+    (IPOPT passes an iterate with zero slack that satisfies the midpoint rule, but its inputs under
+    RK4 roll the hull over, so the certificate's stop rightly does not take it.)
     Oracle: its inputs re-simulated by RK4 (20 substeps an interval) keep every body the 2 cm margin
     off every plane at every node, within the input and joint bounds."""
     h, ref = approach(params, 0.1, 0.5)
@@ -236,3 +238,32 @@ def test_retry_from_the_fresh_plan_finds_F_where_the_first_start_fails(sharp, sc
     assert (c.verdict, c.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
     hs = simulate(retrying.model, rec["h0"], c.solution.u, retrying.settings.dt, substeps=20, current=rec["current"])
     assert retrying.plan_is_feasible(hs, c.solution.u)
+
+
+@pytest.mark.slow
+def test_stop_at_the_first_point_of_F_removes_a_false_unavoidable() -> None:
+    """A certificate call of a MuJoCo closed loop (wall-oblique, mismatch seed 1, the run's third
+    minimum-violation problem; recorded in tests/data with the current and the dead horizontal
+    thrusters' bounds). Without the stop IPOPT reaches a point of F on the way but walks away from
+    it and ends at its 300-iteration cap with slacks of metres, so the certificate says
+    'unavoidable'; with it (the default) the solve stops at that point. Oracle: the plan's inputs
+    re-simulated by RK4 (20 substeps an interval, not the 4 of the stop's own check) stay within
+    bounds and keep every body at least the 2 cm margin off (measured 5.6 cm)."""
+    from validation import mismatch, scenarios
+    from validation.closed_loop import build_plant
+
+    rec = np.load(Path(__file__).parent / "data" / "wall_oblique_certificate_call.npz")
+    controller_params, scene, _, _ = build_plant(scenarios.get("wall-oblique"), mismatch.DEFAULT, 1)
+    model = UVMSModel(controller_params, scene.water)
+    verdicts = []
+    for stop in (False, True):
+        test = FeasibilityTest(model, scene.planes, stop=stop)
+        test.limit_inputs(rec["input_lo"], rec["input_hi"])
+        verdicts.append(test(rec["h0"], rec["h_ref"], rec["current"]))
+    walked, stopped = verdicts
+    assert walked.verdict is Verdict.INFEASIBLE and walked.violation == np.inf
+    assert walked.solution.iterations == test.problem.settings.max_iter
+    assert (stopped.verdict, stopped.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
+    assert stopped.solution.iterations < walked.solution.iterations
+    hs = simulate(model, rec["h0"], stopped.solution.u, test.settings.dt, substeps=20, current=rec["current"])
+    assert test.plan_is_feasible(hs, stopped.solution.u)

@@ -213,6 +213,14 @@ def _mode3_1s(s: SwitchingSettings) -> SwitchingSettings:
     return replace(s, mode3=replace(s.mode3, horizon=10))
 
 
+def _without_stop(variant: Callable[[SwitchingSettings], SwitchingSettings]
+                  ) -> Callable[[SwitchingSettings], SwitchingSettings]:
+    """The variant with the certificate's minimum-violation IPOPT run to its end, not stopped at
+    its first point of F (`certificate_stop`, the default since the fifth session of 2026-12-01):
+    every variant measured before that."""
+    return lambda s: variant(replace(s, certificate_stop=False))
+
+
 def _as_measured(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
                  ) -> SwitchingSettings:
     return variant(_approach_only(_robust_mu0(_mode3_1s(replace(s, deploy_deadline=False, redeploy=False)))))
@@ -247,10 +255,8 @@ _MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] 
                                                                           distance_margin=CONTACT_MARGIN),
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
-CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
-    "switching": lambda s: s,
-    "mode1-only": lambda s: replace(s, switching=False),
-    "braking": lambda s: s,
+_MEASURED_WITHOUT_STOP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
+    "switching-no-stop": lambda s: s,  # the default before the fifth session of 2026-12-01
     "switching-mode3-1s": _mode3_1s,  # the default before the fourth session of 2026-12-01
     "switching-certificate-cap100": lambda s: replace(s, certificate_max_iter=100),  # bench/results/certificate_cap
     # measured with Mode III over 1 s, so with it:
@@ -269,6 +275,12 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching-loose-qp": lambda s: _approach_only(_mode3_1s(replace(s, redeploy=False, mode1=replace(
         s.mode1, sqp=replace(s.mode1.sqp, qp_tol=LOOSE_QP_TOL))))),
     **{name: partial(_as_measured, f) for name, f in _MEASURED_ON_SHARP.items()},
+}
+CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
+    "switching": lambda s: s,
+    "mode1-only": lambda s: replace(s, switching=False),
+    "braking": lambda s: s,
+    **{name: _without_stop(f) for name, f in _MEASURED_WITHOUT_STOP.items()},
 }
 # The model each controller plans on, when it is not ModelOptions() (the default).
 MODEL_OPTIONS: dict[str, ModelOptions] = {name: SHARP for name in _MEASURED_ON_SHARP}
