@@ -24,12 +24,14 @@ from enum import Enum
 import casadi as ca
 import numpy as np
 
+from controller.iterate_stop import IterateStop
 from controller.model import UVMSModel
 from controller.sqp import SQPSettings, StageSQP
-from controller.iterate_stop import IterateStop
 from controller.stage_nlp import StageProblem, build_solver
 from controller.transcription import FEASIBLE_VIOLATION, SolverStatus, clearances, ipopt_status, midpoint_residual
 from uvms.scene import Plane
+
+PITCH = 4  # the pitch angle's index in the state h = (x, y, z, roll, pitch, yaw, q, nu, qdot)
 
 
 def _default_state_weights(n_joints: int) -> tuple[float, ...]:
@@ -57,6 +59,10 @@ class ModeISettings:
     state_weights: tuple[float, ...] | None = None  # None: _default_state_weights
     input_weight: float = 1e-3  # 1/N^2 and 1/(N m)^2
     distance_margin: float = 0.02  # m
+    # rad: |pitch| at nodes 1..N. The ZYX Euler rates are singular at +-pi/2 (controller.kinematics);
+    # without a bound the certificate's IPOPT wandered through it and took 100 ms iterations (its
+    # Hessian needing regularizations of 1e13): bench/results/min_violation_stop.md. None: no bound.
+    pitch_limit: float | None = 1.2
     max_iter: int = 100  # IPOPT
     tol: float = 1e-6  # IPOPT
     compiled: bool = True  # per-stage derivatives compiled to C (controller.stage_nlp); False: one SX NLP
@@ -169,6 +175,8 @@ class ModeIOCP:
             i = k * self._nz
             if k > 0:
                 self.lbw[i + 6:i + 6 + n], self.ubw[i + 6:i + 6 + n] = q_lo, q_hi
+                if settings.pitch_limit is not None:
+                    self.lbw[i + PITCH], self.ubw[i + PITCH] = -settings.pitch_limit, settings.pitch_limit
             if k < N:
                 self.lbw[i + ns:i + ns + nu], self.ubw[i + ns:i + ns + nu] = lo, hi
                 self.lbw[i + ns + nu + nv:i + self._nz] = 0.0  # slacks
@@ -192,13 +200,13 @@ class ModeIOCP:
             self.lbw[i:i + nu], self.ubw[i:i + nu] = lo, hi
 
     def plan_within_bounds(self, hs: np.ndarray, us: np.ndarray) -> bool:
-        """Whether inputs (N, nu) and the joint angles of states hs[1:] lie within this problem's
-        current bounds (failed thrusters included)."""
+        """Whether inputs (N, nu) and the pitch and joint angles of states hs[1:] lie within this
+        problem's current bounds (failed thrusters included)."""
         ns, nu, nz, n = self.ns, self.nu, self._nz, self.model.n_joints
         lo, hi = self.lbw[ns:ns + nu], self.ubw[ns:ns + nu]
-        q_lo, q_hi = self.lbw[nz + 6:nz + 6 + n], self.ubw[nz + 6:nz + 6 + n]
+        x_lo, x_hi = self.lbw[nz + PITCH:nz + 6 + n], self.ubw[nz + PITCH:nz + 6 + n]  # pitch, yaw, joints
         return (len(us) == self.settings.horizon and bool(np.all(us >= lo - 1e-9) and np.all(us <= hi + 1e-9))
-                and bool(np.all(hs[1:, 6:6 + n] >= q_lo) and np.all(hs[1:, 6:6 + n] <= q_hi)))
+                and bool(np.all(hs[1:, PITCH:6 + n] >= x_lo) and np.all(hs[1:, PITCH:6 + n] <= x_hi)))
 
     # ------------------------------------------------------------------------------------------
     def guess_from_rollout(self, h: np.ndarray, u: np.ndarray) -> np.ndarray:

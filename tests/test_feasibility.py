@@ -8,13 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controller.feasibility import FeasibilityTest, Method, Verdict
+from controller.feasibility import Certificate, FeasibilityTest, Method, Verdict
+from controller.mode1 import ModeISettings
 from controller.model import UVMSModel
 from controller.rollouts import simulate
-from controller.transcription import FEASIBLE_VIOLATION
+from controller.transcription import FEASIBLE_VIOLATION, SolverStatus
 from validation.closed_loop import SHARP
 
 WALL_X = 2.0  # m, the default scene's wall
+AS_MEASURED = ModeISettings(pitch_limit=None)  # Mode I before its pitch bound (the opt-in screens' tests)
 
 
 @pytest.fixture(scope="module")
@@ -30,14 +32,15 @@ def searching(certificate, scene) -> FeasibilityTest:
 
 @pytest.fixture(scope="module")
 def sharp(params, scene) -> FeasibilityTest:
-    """The default certificate on the model as it was until 2026-12-01 (validation.closed_loop.SHARP:
-    the superellipsoids smoothed at 1e-7 m), where the opt-in screens below were measured and are run."""
-    return FeasibilityTest(UVMSModel(params, scene.water, SHARP), scene.planes)
+    """The certificate as it was until 2026-12-01, where the opt-in screens below were measured and
+    are run: on the sharp model (validation.closed_loop.SHARP: the superellipsoids smoothed at 1e-7
+    m), without the pitch bound and with IPOPT run to its end (no stop)."""
+    return FeasibilityTest(UVMSModel(params, scene.water, SHARP), scene.planes, AS_MEASURED, stop=False)
 
 
 @pytest.fixture(scope="module")
 def sharp_searching(sharp, scene) -> FeasibilityTest:
-    return FeasibilityTest(sharp.model, scene.planes, search_iterations=20)
+    return FeasibilityTest(sharp.model, scene.planes, AS_MEASURED, search_iterations=20, stop=False)
 
 
 def approach(params, gap: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -205,7 +208,7 @@ def test_warm_start_finds_F_where_the_default_start_fails(sharp, scene) -> None:
     RK4 (20 substeps an interval, the recorded current) stay within bounds and keep every body at
     least the 2 cm margin off (measured 4.9 cm)."""
     rec = np.load(Path(__file__).parent / "data" / "wall_headon_certificate_call.npz")
-    warm = FeasibilityTest(sharp.model, scene.planes, warm_start=True)
+    warm = FeasibilityTest(sharp.model, scene.planes, AS_MEASURED, warm_start=True, stop=False)
     fresh = (rec["fresh_h"], rec["fresh_u"])
     verdicts = []
     for test in (sharp, warm):
@@ -232,7 +235,7 @@ def test_retry_from_the_fresh_plan_finds_F_where_the_first_start_fails(sharp, sc
     plan's inputs re-simulated by RK4 (20 substeps an interval, the recorded current) stay within
     bounds and keep every body at least the 2 cm margin off (measured 4.9 cm)."""
     rec = np.load(Path(__file__).parent / "data" / "wall_headon_certificate_call.npz")
-    retrying = FeasibilityTest(sharp.model, scene.planes, retry=True)
+    retrying = FeasibilityTest(sharp.model, scene.planes, AS_MEASURED, retry=True, stop=False)
     retrying.limit_inputs(rec["input_lo"], rec["input_hi"])
     c = retrying(rec["h0"], rec["h_ref"], rec["current"], fresh=lambda: (rec["fresh_h"], rec["fresh_u"]))
     assert (c.verdict, c.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
@@ -240,30 +243,56 @@ def test_retry_from_the_fresh_plan_finds_F_where_the_first_start_fails(sharp, sc
     assert retrying.plan_is_feasible(hs, c.solution.u)
 
 
-@pytest.mark.slow
-def test_stop_at_the_first_point_of_F_removes_a_false_unavoidable() -> None:
-    """A certificate call of a MuJoCo closed loop (wall-oblique, mismatch seed 1, the run's third
-    minimum-violation problem; recorded in tests/data with the current and the dead horizontal
-    thrusters' bounds). Without the stop IPOPT reaches a point of F on the way but walks away from
-    it and ends at its 300-iteration cap with slacks of metres, so the certificate says
-    'unavoidable'; with it (the default) the solve stops at that point. Oracle: the plan's inputs
-    re-simulated by RK4 (20 substeps an interval, not the 4 of the stop's own check) stay within
-    bounds and keep every body at least the 2 cm margin off (measured 5.6 cm)."""
+def oblique_call() -> tuple[UVMSModel, tuple, dict]:
+    """The controller's model and planes of wall-oblique (mismatch seed 1) and a certificate call of
+    its MuJoCo closed loop (the run's third minimum-violation problem; recorded in tests/data with
+    the current and the dead horizontal thrusters' bounds)."""
     from validation import mismatch, scenarios
     from validation.closed_loop import build_plant
 
-    rec = np.load(Path(__file__).parent / "data" / "wall_oblique_certificate_call.npz")
     controller_params, scene, _, _ = build_plant(scenarios.get("wall-oblique"), mismatch.DEFAULT, 1)
-    model = UVMSModel(controller_params, scene.water)
-    verdicts = []
-    for stop in (False, True):
-        test = FeasibilityTest(model, scene.planes, stop=stop)
-        test.limit_inputs(rec["input_lo"], rec["input_hi"])
-        verdicts.append(test(rec["h0"], rec["h_ref"], rec["current"]))
-    walked, stopped = verdicts
+    rec = dict(np.load(Path(__file__).parent / "data" / "wall_oblique_certificate_call.npz"))
+    return UVMSModel(controller_params, scene.water), scene.planes, rec
+
+
+def certify(model: UVMSModel, planes, rec: dict, settings: ModeISettings, stop: bool) -> tuple[FeasibilityTest,
+                                                                                                Certificate]:
+    test = FeasibilityTest(model, planes, settings, stop=stop)
+    test.limit_inputs(rec["input_lo"], rec["input_hi"])
+    return test, test(rec["h0"], rec["h_ref"], rec["current"])
+
+
+@pytest.mark.slow
+def test_stop_at_the_first_point_of_F_removes_a_false_unavoidable() -> None:
+    """Without Mode I's pitch bound (which alone also removes this false 'unavoidable', next test),
+    on the recorded wall-oblique call (oblique_call): run to its end, IPOPT reaches a point of F on
+    the way but walks away from it and ends at its 300-iteration cap with slacks of metres, so the
+    certificate says 'unavoidable'; with the stop (the default) the solve ends at that point.
+    Oracle: the plan's inputs re-simulated by RK4 (20 substeps an interval, not the 4 of the stop's
+    own check) stay within bounds and keep every body at least the 2 cm margin off (measured 5.6 cm)."""
+    model, planes, rec = oblique_call()
+    _, walked = certify(model, planes, rec, AS_MEASURED, stop=False)
+    test, stopped = certify(model, planes, rec, AS_MEASURED, stop=True)
     assert walked.verdict is Verdict.INFEASIBLE and walked.violation == np.inf
     assert walked.solution.iterations == test.problem.settings.max_iter
     assert (stopped.verdict, stopped.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
     assert stopped.solution.iterations < walked.solution.iterations
     hs = simulate(model, rec["h0"], stopped.solution.u, test.settings.dt, substeps=20, current=rec["current"])
     assert test.plan_is_feasible(hs, stopped.solution.u)
+
+
+@pytest.mark.slow
+def test_pitch_bound_keeps_the_certificate_off_the_euler_singularity() -> None:
+    """The same call, IPOPT run to its end both times: without a pitch bound its iterates pitch the
+    hull past 90 deg, where the ZYX Euler rates are singular, and it ends at its cap ('unavoidable');
+    with Mode I's default bound (|pitch| <= 1.2 rad at every node) it converges to a zero minimum
+    violation. Oracle: that plan's inputs re-simulated by RK4 (20 substeps an interval) keep every
+    body the 2 cm margin off, within the input, joint and pitch bounds."""
+    model, planes, rec = oblique_call()
+    _, unbounded = certify(model, planes, rec, AS_MEASURED, stop=False)
+    test, bounded = certify(model, planes, rec, ModeISettings(), stop=False)
+    assert unbounded.verdict is Verdict.INFEASIBLE and np.abs(unbounded.solution.h[:, 4]).max() > np.pi / 2
+    assert (bounded.verdict, bounded.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
+    assert bounded.solution.status is SolverStatus.SUCCESS
+    hs = simulate(model, rec["h0"], bounded.solution.u, test.settings.dt, substeps=20, current=rec["current"])
+    assert test.plan_is_feasible(hs, bounded.solution.u) and np.abs(hs[:, 4]).max() <= 1.2

@@ -215,10 +215,10 @@ def _mode3_1s(s: SwitchingSettings) -> SwitchingSettings:
 
 def _without_stop(variant: Callable[[SwitchingSettings], SwitchingSettings]
                   ) -> Callable[[SwitchingSettings], SwitchingSettings]:
-    """The variant with the certificate's minimum-violation IPOPT run to its end, not stopped at
-    its first point of F (`certificate_stop`, the default since the fifth session of 2026-12-01):
-    every variant measured before that."""
-    return lambda s: variant(replace(s, certificate_stop=False))
+    """The variant as it was before the fifth session of 2026-12-01 (every variant measured before
+    it): the certificate's minimum-violation IPOPT run to its end, not stopped at its first proof
+    of F (`certificate_stop`), and Mode I's OCPs without their pitch bound (`pitch_limit`)."""
+    return lambda s: variant(replace(s, certificate_stop=False, mode1=replace(s.mode1, pitch_limit=None)))
 
 
 def _as_measured(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
@@ -256,7 +256,7 @@ _MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] 
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
 _MEASURED_WITHOUT_STOP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
-    "switching-no-stop": lambda s: s,  # the default before the fifth session of 2026-12-01
+    "switching-no-stop": lambda s: s,  # the default before the fifth session of 2026-12-01 (_without_stop)
     "switching-mode3-1s": _mode3_1s,  # the default before the fourth session of 2026-12-01
     "switching-certificate-cap100": lambda s: replace(s, certificate_max_iter=100),  # bench/results/certificate_cap
     # measured with Mode III over 1 s, so with it:

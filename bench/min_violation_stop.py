@@ -1,0 +1,137 @@
+"""The certificate's minimum-violation IPOPT, stopped at its first proof of F or run to its end,
+on the problems MuJoCo closed loops actually posed.
+
+  python bench/min_violation_stop.py --record 2   # record RUNS' problems (2 workers, about 4 min)
+  python bench/min_violation_stop.py              # solve each with and without the stop (about 5 min)
+
+--record writes out/min_violation_problems.npz (not committed; the closed loops are deterministic):
+per problem the run, the measured state, the task reference, the current the controller assumes,
+the input bounds (dead thrusters) and the primal start (the braking rollout's). The evaluation
+solves every problem with `FeasibilityTest(stop=True)` (the default) and `stop=False`, one after
+the other, and writes bench/results/min_violation_stop.md: verdicts, where they differ, iterations
+and solve times, and how many 'feasible' verdicts rest on a plan whose inputs, re-simulated by the
+model's RK4, do not keep the margin (the midpoint rule's F but not the model's). Times are wall
+clock on a shared machine; iterations are deterministic.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+from tqdm import tqdm
+
+from controller.feasibility import FeasibilityTest, Verdict
+from controller.model import UVMSModel
+from controller.rollouts import simulate
+from validation import mismatch, scenarios
+from validation.closed_loop import build_plant
+
+OUT = Path(__file__).parent / "results" / "min_violation_stop.md"
+PROBLEMS = Path(__file__).parent.parent / "out" / "min_violation_problems.npz"
+# the runs whose minimum-violation problems are recorded: wall-oblique seeds 11, 15 and 19 had the
+# longest certificate steps of the 72-run campaigns (bench/results/certificate_cap300)
+RUNS = ("wall-oblique:11", "wall-oblique:15", "wall-oblique:19", "wall-oblique:0", "wall-oblique:1",
+        "wall-oblique:2", "wall-oblique:3", "wall-oblique:5", "wall-headon:0", "wall-headon:1", "wall-headon:2",
+        "wall-headon:3", "wall-headon:4", "arm-deployed:0", "thrusters-dead:0", "thrusters-dead:1",
+        "mission-near-wall:0")
+KEYS = ("h0", "h_ref", "current", "lo", "hi", "guess")
+
+
+def _record_run(run_name: str) -> list[dict]:
+    """The minimum-violation problems of one closed loop (default controller and mismatch)."""
+    import controller.mode1 as m1
+    from validation.closed_loop import run
+
+    name, seed = run_name.split(":")
+    calls: list[dict] = []
+    solve = m1.ModeIOCP.solve
+
+    def recording(self, h0, h_ref, current=None, previous=None, guess=None, sqp=None):
+        if self.min_violation:
+            nu, ns = self.nu, self.ns
+            calls.append({"run": run_name, "h0": np.array(h0), "h_ref": np.array(h_ref),
+                          "current": np.zeros(3) if current is None else np.array(current),
+                          "lo": self.lbw[ns:ns + nu].copy(), "hi": self.ubw[ns:ns + nu].copy(),
+                          "guess": np.array(guess)})
+        return solve(self, h0, h_ref, current, previous, guess, sqp)
+
+    m1.ModeIOCP.solve = recording
+    run(scenarios.get(name), controller="switching", mismatch=mismatch.DEFAULT, seed=int(seed))
+    return calls
+
+
+def record(workers: int) -> None:
+    calls: list[dict] = []
+    with ProcessPoolExecutor(workers) as ex:
+        for c in tqdm(ex.map(_record_run, RUNS), total=len(RUNS), desc="closed loops", unit="run"):
+            calls += c
+    PROBLEMS.parent.mkdir(exist_ok=True)
+    np.savez_compressed(PROBLEMS, run=np.array([c["run"] for c in calls]),
+                        **{k: np.array([c[k] for c in calls]) for k in KEYS})
+    print(f"{len(calls)} problems from {len(RUNS)} runs -> {PROBLEMS}")
+
+
+def mpm(v: list[float], fmt: str = "{:.0f}") -> str:
+    """median / p95 / max."""
+    return " / ".join(fmt.format(x) for x in (np.median(v), np.percentile(v, 95), np.max(v)))
+
+
+def evaluate() -> None:
+    if not PROBLEMS.exists():
+        raise SystemExit(f"{PROBLEMS} is missing; allowed: run `python bench/min_violation_stop.py --record 2` first")
+    data = dict(np.load(PROBLEMS))
+    tests: dict[tuple[str, bool], FeasibilityTest] = {}
+    rows: dict[bool, list[tuple]] = {True: [], False: []}
+    for i in tqdm(range(len(data["run"])), desc="problems", unit="problem"):
+        run_name = str(data["run"][i])
+        for stop in (True, False):
+            if (run_name, stop) not in tests:
+                name, seed = run_name.split(":")
+                params, scene, _, _ = build_plant(scenarios.get(name), mismatch.DEFAULT, int(seed))
+                tests[run_name, stop] = FeasibilityTest(UVMSModel(params, scene.water), scene.planes, stop=stop)
+            test = tests[run_name, stop]
+            test.limit_inputs(data["lo"][i], data["hi"][i])
+            h0, current = data["h0"][i], data["current"][i]
+            sol = test.problem.solve(h0, data["h_ref"][i], current, guess=data["guess"][i])
+            verdict = test.judge(sol, np.nan, sol.solve_time, np.zeros(0), np.zeros(0)).verdict
+            physical = verdict is Verdict.FEASIBLE and test.plan_is_feasible(
+                simulate(test.model, h0, sol.u, test.settings.dt, current=current), sol.u)
+            rows[stop].append((verdict, sol.iterations, sol.solve_time, physical))
+    n = len(data["run"])
+    lines = ["# The certificate's minimum-violation IPOPT: stopped at its first proof of F, or not", "",
+             f"`python bench/min_violation_stop.py` ({platform.machine()}, casadi {ca.__version__}; {n} problems "
+             f"recorded by `--record 2` in {len(RUNS)} MuJoCo closed loops of the default controller: "
+             f"{', '.join(RUNS)}). Each problem solved by both, one after the other. Iterations and solve time: "
+             "median / p95 / max.", "",
+             "| IPOPT | 'feasible' | of them re-simulated within the margin | 'unavoidable' | iterations | "
+             "solve time [s] |", "|---|---|---|---|---|---|"]
+    for stop, label in ((False, "run to its end (before)"), (True, "stopped at its first proof of F (default)")):
+        r = rows[stop]
+        feas = [x for x in r if x[0] is Verdict.FEASIBLE]
+        lines.append(f"| {label} | {len(feas)} | {sum(x[3] for x in feas)} | {n - len(feas)} | "
+                     f"{mpm([x[1] for x in r])} | {mpm([x[2] for x in r], '{:.2f}')} |")
+    differ = [i for i in range(n) if rows[True][i][0] is not rows[False][i][0]]
+    lines += ["", f"Verdicts that differ: {len(differ)}" + (": " + "; ".join(
+        f"{data['run'][i]} problem {i}: {rows[False][i][0].value} ({rows[False][i][1]} iterations) -> "
+        f"{rows[True][i][0].value} ({rows[True][i][1]})" for i in differ) if differ else ".")]
+    saved = [rows[False][i][1] - rows[True][i][1] for i in range(n)]
+    lines += [f"Iterations saved per problem: median {np.median(saved):.0f}, largest {max(saved)}; "
+              f"in all {sum(saved)} of {sum(x[1] for x in rows[False])}.", ""]
+    OUT.write_text("\n".join(lines))
+    print("\n".join(lines))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--record", type=int, metavar="WORKERS", help="record the problems with this many workers")
+    a = ap.parse_args()
+    record(a.record) if a.record else evaluate()
+
+
+if __name__ == "__main__":
+    main()
