@@ -27,8 +27,12 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    tolerance, the OCP's constraints within FEASIBLE_VIOLATION, and inputs that, re-simulated by
    RK4 from the measured state, pass the screens' test (`proves_f`; the midpoint rule alone also
    admits plans that RK4 does not reproduce). Without it IPOPT could pass such a point, walk away
-   and end at its cap with slacks of metres: on 96 problems recorded in 13 MuJoCo runs it saved 1
-   false 'unavoidable' and about 10% of the iterations (bench/results/min_violation_stop.md). The problem is not
+   and end at its cap with slacks of metres. Mode I's pitch bound (ModeISettings.pitch_limit) keeps
+   the iterates off the Euler angles' singularity, where they used to wander. On 210 problems
+   recorded in 17 MuJoCo runs (bench/results/min_violation_stop.md): without either, 40 'unavoidable'
+   (nearly all at the iteration cap), 132 iterations median, 24.9 s at most; with the bound, 2,
+   84 iterations, 3.2 s; with the bound and the stop (the default), the same verdicts in 77
+   iterations median, 3.6 s at most. The problem is not
    convex: a positive local minimum is strong evidence, not a proof, that F is empty (two starts
    gave 2.5 and 12.8 cm on the same unavoidable case). An iterate that IPOPT leaves feasible at its
    iteration cap counts with its slack sum (an upper bound on the minimum). If IPOPT fails on this

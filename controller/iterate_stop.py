@@ -3,7 +3,7 @@
 The certificate's minimum-violation problem (controller.feasibility) asks one thing: is there a
 point with zero slack that satisfies the dynamics? Its first such iterate is that proof; the rest
 of IPOPT's run only optimizes the 1e-6 tracking regularization and the complementarity, and on
-hard problems it can walk away from the point again and end at its iteration cap with slacks of
+hard problems it could walk away from the point again and end at its iteration cap with slacks of
 metres (recorded MuJoCo problems: bench/results/min_violation_stop.md).
 """
 
