@@ -280,6 +280,8 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching": lambda s: s,
     "mode1-only": lambda s: replace(s, switching=False),
     "braking": lambda s: s,
+    # F asked to keep CERTIFICATE_MARGIN (4 cm) instead of Mode I's 2 cm (bench/results/certificate_margin):
+    "switching-certificate-margin": lambda s: replace(s, certificate_margin=CERTIFICATE_MARGIN),
     **{name: _without_stop(f) for name, f in _MEASURED_WITHOUT_STOP.items()},
 }
 # The model each controller plans on, when it is not ModelOptions() (the default).
