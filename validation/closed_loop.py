@@ -213,7 +213,7 @@ def _mode3_1s(s: SwitchingSettings) -> SwitchingSettings:
     return replace(s, mode3=replace(s.mode3, horizon=10))
 
 
-def _without_stop(variant: Callable[[SwitchingSettings], SwitchingSettings]
+def _before_pitch_bound_and_stop(variant: Callable[[SwitchingSettings], SwitchingSettings]
                   ) -> Callable[[SwitchingSettings], SwitchingSettings]:
     """The variant as it was before the fifth session of 2026-12-01 (every variant measured before
     it): the certificate's minimum-violation IPOPT run to its end, not stopped at its first proof
@@ -255,8 +255,8 @@ _MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] 
                                                                           distance_margin=CONTACT_MARGIN),
                                                   mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
 }
-_MEASURED_WITHOUT_STOP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
-    "switching-no-stop": lambda s: s,  # the default before the fifth session of 2026-12-01 (_without_stop)
+_MEASURED_BEFORE_PITCH_BOUND: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
+    "switching-no-stop": lambda s: s,  # the default before the fifth session of 2026-12-01
     "switching-mode3-1s": _mode3_1s,  # the default before the fourth session of 2026-12-01
     "switching-certificate-cap100": lambda s: replace(s, certificate_max_iter=100),  # bench/results/certificate_cap
     # measured with Mode III over 1 s, so with it:
@@ -282,7 +282,7 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "braking": lambda s: s,
     # F asked to keep CERTIFICATE_MARGIN (4 cm) instead of Mode I's 2 cm (bench/results/certificate_margin):
     "switching-certificate-margin": lambda s: replace(s, certificate_margin=CERTIFICATE_MARGIN),
-    **{name: _without_stop(f) for name, f in _MEASURED_WITHOUT_STOP.items()},
+    **{name: _before_pitch_bound_and_stop(f) for name, f in _MEASURED_BEFORE_PITCH_BOUND.items()},
 }
 # The model each controller plans on, when it is not ModelOptions() (the default).
 MODEL_OPTIONS: dict[str, ModelOptions] = {name: SHARP for name in _MEASURED_ON_SHARP}
