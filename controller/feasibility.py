@@ -172,10 +172,12 @@ class FeasibilityTest:
         """The minimum-violation iterate `sol` (for parameters p = (h0, h_ref, current)) as a proof
         that F is not empty: slack sum within the tolerance, and its inputs re-simulated from h0 by
         the model's RK4 pass `plan_is_feasible` (as the screens' plans must)."""
-        if float(np.sum(sol.slack)) > self.tolerance:
-            return False
         ns = self.model.n_states
-        return self.plan_is_feasible(simulate(self.model, p[:ns], sol.u, self.settings.dt, current=p[2 * ns:]), sol.u)
+        return float(np.sum(sol.slack)) <= self.tolerance and self.resimulated_is_feasible(p[:ns], sol.u, p[2 * ns:])
+
+    def resimulated_is_feasible(self, h0: np.ndarray, us: np.ndarray, current: np.ndarray | None = None) -> bool:
+        """Whether inputs us (N, nu), re-simulated from h0 by the model's RK4, pass `plan_is_feasible`."""
+        return self.plan_is_feasible(simulate(self.model, h0, us, self.settings.dt, current=current), us)
 
     def search_plan(self, h0: np.ndarray, h_ref: np.ndarray, start: tuple[np.ndarray, np.ndarray],
                     current: np.ndarray | None = None) -> OCPSolution | None:
@@ -186,8 +188,8 @@ class FeasibilityTest:
             return None
         sol = self.search.solve(h0, h_ref, current, guess=self.search.guess_from_rollout(*start),
                                 sqp=self.search_settings)
-        if sol.status.usable and (sol.violation <= FEASIBLE_VIOLATION or self.plan_is_feasible(
-                simulate(self.model, h0, sol.u, self.settings.dt, current=current), sol.u)):
+        if sol.status.usable and (sol.violation <= FEASIBLE_VIOLATION or
+                                  self.resimulated_is_feasible(h0, sol.u, current)):
             return sol
         return None
 

@@ -147,9 +147,12 @@ class ModeIOCP:
         self._P = np.zeros(2 * ns + 3)  # the parameters of the running solve (for the stop's check)
         self.stop = None
         if stop is not None:
-            self.stop = IterateStop(nw, ng, lambda w, g: self._violation(g) <= FEASIBLE_VIOLATION and stop(
-                self._solution(w, SolverStatus.FEASIBLE, np.nan, -1, np.nan, np.zeros(0), np.zeros(0),
-                               self._violation(g)), self._P))
+            def accept(w: np.ndarray, g: np.ndarray) -> bool:
+                violation = self._violation(g)
+                return violation <= FEASIBLE_VIOLATION and stop(self._solution(
+                    w, SolverStatus.FEASIBLE, np.nan, -1, np.nan, np.zeros(0), np.zeros(0), violation), self._P)
+
+            self.stop = IterateStop(nw, ng, accept)
         callback = {"iteration_callback": self.stop} if self.stop is not None else {}
         if settings.compiled:
             problem = StageProblem(nx=ns, nv=self._nz - ns, horizon=N, np=2 * ns + 3, cost=stage_cost,

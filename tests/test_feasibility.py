@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from controller.feasibility import Certificate, FeasibilityTest, Method, Verdict
-from controller.mode1 import ModeISettings
+from controller.mode1 import PITCH, ModeISettings
 from controller.model import UVMSModel
 from controller.rollouts import simulate
 from controller.transcription import FEASIBLE_VIOLATION, SolverStatus
@@ -243,16 +243,19 @@ def test_retry_from_the_fresh_plan_finds_F_where_the_first_start_fails(sharp, sc
     assert retrying.plan_is_feasible(hs, c.solution.u)
 
 
-def oblique_call() -> tuple[UVMSModel, tuple, dict]:
-    """The controller's model and planes of wall-oblique (mismatch seed 1) and a certificate call of
-    its MuJoCo closed loop (the run's third minimum-violation problem; recorded in tests/data with
-    the current and the dead horizontal thrusters' bounds)."""
+@pytest.fixture(scope="module")
+def oblique_call() -> tuple[UVMSModel, tuple, dict, Certificate]:
+    """The controller's model and planes of wall-oblique (mismatch seed 1), a certificate call of its
+    MuJoCo closed loop (the run's third minimum-violation problem; recorded in tests/data with the
+    current and the dead horizontal thrusters' bounds), and the certificate as it was before the
+    pitch bound and the stop (AS_MEASURED, IPOPT run to its end) on it."""
     from validation import mismatch, scenarios
     from validation.closed_loop import build_plant
 
     controller_params, scene, _, _ = build_plant(scenarios.get("wall-oblique"), mismatch.DEFAULT, 1)
     rec = dict(np.load(Path(__file__).parent / "data" / "wall_oblique_certificate_call.npz"))
-    return UVMSModel(controller_params, scene.water), scene.planes, rec
+    model = UVMSModel(controller_params, scene.water)
+    return model, scene.planes, rec, certify(model, scene.planes, rec, AS_MEASURED, stop=False)[1]
 
 
 def certify(model: UVMSModel, planes, rec: dict, settings: ModeISettings, stop: bool) -> tuple[FeasibilityTest,
@@ -263,15 +266,14 @@ def certify(model: UVMSModel, planes, rec: dict, settings: ModeISettings, stop: 
 
 
 @pytest.mark.slow
-def test_stop_at_the_first_point_of_F_removes_a_false_unavoidable() -> None:
+def test_stop_at_the_first_point_of_F_removes_a_false_unavoidable(oblique_call) -> None:
     """Without Mode I's pitch bound (which alone also removes this false 'unavoidable', next test),
     on the recorded wall-oblique call (oblique_call): run to its end, IPOPT reaches a point of F on
     the way but walks away from it and ends at its 300-iteration cap with slacks of metres, so the
     certificate says 'unavoidable'; with the stop (the default) the solve ends at that point.
     Oracle: the plan's inputs re-simulated by RK4 (20 substeps an interval, not the 4 of the stop's
     own check) stay within bounds and keep every body at least the 2 cm margin off (measured 5.6 cm)."""
-    model, planes, rec = oblique_call()
-    _, walked = certify(model, planes, rec, AS_MEASURED, stop=False)
+    model, planes, rec, walked = oblique_call
     test, stopped = certify(model, planes, rec, AS_MEASURED, stop=True)
     assert walked.verdict is Verdict.INFEASIBLE and walked.violation == np.inf
     assert walked.solution.iterations == test.problem.settings.max_iter
@@ -282,17 +284,17 @@ def test_stop_at_the_first_point_of_F_removes_a_false_unavoidable() -> None:
 
 
 @pytest.mark.slow
-def test_pitch_bound_keeps_the_certificate_off_the_euler_singularity() -> None:
+def test_pitch_bound_keeps_the_certificate_off_the_euler_singularity(oblique_call) -> None:
     """The same call, IPOPT run to its end both times: without a pitch bound its iterates pitch the
     hull past 90 deg, where the ZYX Euler rates are singular, and it ends at its cap ('unavoidable');
     with Mode I's default bound (|pitch| <= 1.2 rad at every node) it converges to a zero minimum
     violation. Oracle: that plan's inputs re-simulated by RK4 (20 substeps an interval) keep every
     body the 2 cm margin off, within the input, joint and pitch bounds."""
-    model, planes, rec = oblique_call()
-    _, unbounded = certify(model, planes, rec, AS_MEASURED, stop=False)
+    model, planes, rec, unbounded = oblique_call
     test, bounded = certify(model, planes, rec, ModeISettings(), stop=False)
-    assert unbounded.verdict is Verdict.INFEASIBLE and np.abs(unbounded.solution.h[:, 4]).max() > np.pi / 2
+    assert unbounded.verdict is Verdict.INFEASIBLE and np.abs(unbounded.solution.h[:, PITCH]).max() > np.pi / 2
     assert (bounded.verdict, bounded.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
     assert bounded.solution.status is SolverStatus.SUCCESS
     hs = simulate(model, rec["h0"], bounded.solution.u, test.settings.dt, substeps=20, current=rec["current"])
-    assert test.plan_is_feasible(hs, bounded.solution.u) and np.abs(hs[:, 4]).max() <= 1.2
+    assert test.plan_is_feasible(hs, bounded.solution.u)
+    assert np.abs(hs[:, PITCH]).max() <= test.settings.pitch_limit
