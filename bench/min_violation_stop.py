@@ -47,28 +47,42 @@ CONFIGS: dict[str, tuple[bool, float | None]] = {
     "stop alone": (True, None),
     "neither (before the fifth session of 2026-12-01)": (False, None),
 }
-KEYS = ("h0", "h_ref", "current", "lo", "hi", "guess")
+KEYS = ("h0", "h_ref", "current", "lo", "hi", "guess", "plan_guess")
 
 
 def _record_run(run_name: str) -> list[dict]:
     """The minimum-violation problems of one closed loop (default controller and mismatch)."""
+    import controller.feasibility as fz
     import controller.mode1 as m1
     from validation.closed_loop import run
 
     name, seed = run_name.split(":")
     calls: list[dict] = []
-    solve = m1.ModeIOCP.solve
+    solve, certify = m1.ModeIOCP.solve, fz.FeasibilityTest.__call__
+    candidate: dict = {}
+
+    def certifying(self, h0, h_ref, current=None, previous=None, plan=None, fresh=None, minimum_violation=True):
+        def kept():
+            candidate["plan"] = fresh()
+            return candidate["plan"]
+
+        candidate["plan"] = None
+        return certify(self, h0, h_ref, current, previous, plan, kept if fresh is not None else None,
+                       minimum_violation)
 
     def recording(self, h0, h_ref, current=None, previous=None, guess=None, sqp=None):
         if self.min_violation:
             nu, ns = self.nu, self.ns
+            plan = candidate.get("plan")
             calls.append({"run": run_name, "h0": np.array(h0), "h_ref": np.array(h_ref),
                           "current": np.zeros(3) if current is None else np.array(current),
                           "lo": self.lbw[ns:ns + nu].copy(), "hi": self.ubw[ns:ns + nu].copy(),
-                          "guess": np.array(guess)})
+                          "guess": np.array(guess), "plan_guess": np.full(len(guess), np.nan) if plan is None
+                          else self.guess_from_rollout(*plan)})
         return solve(self, h0, h_ref, current, previous, guess, sqp)
 
     m1.ModeIOCP.solve = recording
+    fz.FeasibilityTest.__call__ = certifying
     run(scenarios.get(name), controller="switching", mismatch=mismatch.DEFAULT, seed=int(seed))
     return calls
 

@@ -39,13 +39,15 @@ class BackgroundCertificate:
         return self._job is not None and not self._job.done()
 
     def submit(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray, screened: Certificate,
-               t: float) -> None:
-        """Start the problem for state h0 at time t [s] from the braking rollout of `screened` (the
-        screens' certificate for h0), as the synchronous certificate does. Refused while a job runs
-        (one at a time)."""
+               t: float, plan: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Start the problem for state h0 at time t [s] as the synchronous certificate does: from
+        `plan` (Mode I's fresh plan: states, inputs) when given and the test starts from it, else
+        from the braking rollout of `screened` (the screens' certificate for h0). Refused while a
+        job runs (one at a time)."""
         if self.busy:
             raise RuntimeError("BackgroundCertificate.submit: a job is running; allowed: one at a time")
-        hs, us = screened.rollout.copy(), screened.rollout_inputs.copy()
+        start = plan if plan is not None and self.test.plan_start else (screened.rollout, screened.rollout_inputs)
+        hs, us = start[0].copy(), start[1].copy()
         guess = self.test.problem.guess_from_rollout(hs, us)
         args = (np.array(h0, float), np.array(h_ref, float), np.array(current, float), guess,
                 screened.rollout_clearance, hs, us)

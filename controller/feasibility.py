@@ -65,7 +65,7 @@ import numpy as np
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, Solver
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy, rollout, simulate
-from controller.transcription import FEASIBLE_VIOLATION
+from controller.transcription import FEASIBLE_VIOLATION, SolverStatus
 from uvms.scene import Plane
 
 MIN_VIOLATION_MAX_ITER = 300  # the minimum-violation problem's IPOPT iteration cap (FeasibilityTest's max_iter)
@@ -76,6 +76,14 @@ class Verdict(Enum):
     INFEASIBLE = "infeasible"
     UNDECIDED = "not certified by the screens (the minimum-violation problem was not asked)"
     PENDING = "not certified by the screens; the minimum-violation problem runs in the background"
+
+
+class Stop(Enum):
+    """Where the minimum-violation IPOPT stops before its own convergence test (the module's doc)."""
+
+    NONE = "run to its end"
+    SLACK = "at the first iterate with slacks within the tolerance, its constraints met and an RK4 witness"
+    WITNESS = "at the first iterate whose inputs, re-simulated by RK4, are a point of F"
 
 
 class Method(Enum):
@@ -107,7 +115,8 @@ class FeasibilityTest:
 
     def __init__(self, model: UVMSModel, planes: Sequence[Plane], settings: ModeISettings | None = None,
                  tolerance: float = 1e-3, search_iterations: int = 0, warm_start: bool = False,
-                 retry: bool = False, max_iter: int = MIN_VIOLATION_MAX_ITER, stop: bool = True):
+                 retry: bool = False, max_iter: int = MIN_VIOLATION_MAX_ITER, stop: Stop = Stop.WITNESS,
+                 plan_start: bool = True):
         """`search_iterations`: the line-search SQP screen's budget (0: no such screen; 20 is the
         tested value; it also needs settings.compiled). `warm_start`: the minimum-violation problem
         starts from the fresh Mode I plan when there is one (the module's docstring). `retry`: when
@@ -121,10 +130,13 @@ class FeasibilityTest:
         families and thrusters-dead end every run as with 300, in a third of the wall clock
         (bench/results/certificate_cap), but 5 of the 24 labelled approaches around F's threshold
         that F calls avoidable become 'unavoidable' (bench/results/certificate_accuracy_cap100.md),
-        so 300 stays. `stop`: IPOPT stops at the minimum-violation problem's first iterate that is a
-        point of F within the tolerance (controller.iterate_stop; the module's docstring)."""
+        so 300 stays. `stop`: where IPOPT stops before its own test (Stop; the module's docstring).
+        `plan_start`: the minimum-violation problem starts from the fresh Mode I plan when there is
+        one, else from the braking rollout (False: always from the braking rollout)."""
         settings = settings or ModeISettings()
         self.model, self.settings, self.tolerance, self.retry = model, settings, tolerance, retry
+        self.stop, self.plan_start = stop, plan_start
+        self._witness: np.ndarray | None = None  # the states of the last witness (Stop.WITNESS)
         # Started cold from the rollout: a large initial barrier and no warm-start point work best
         # (with Mode I's warm-start options IPOPT hit 100 iterations on the unavoidable case). The
         # monotone barrier stays: the adaptive one reached a zero violation on 15 of 18 problems
@@ -133,7 +145,7 @@ class FeasibilityTest:
         # in wall-headon without mismatch (the note on issue 4).
         cold = replace(settings, max_iter=max_iter, ipopt_options={
             "warm_start_init_point": "no", "mu_init": 0.1, **settings.ipopt_options})
-        proof = self.proves_f if stop else None
+        proof = {Stop.NONE: None, Stop.SLACK: self.proves_f, Stop.WITNESS: self.is_witness}[stop]
         self.problem = ModeIOCP(model, planes, cold, min_violation=True, stop=proof)
         self.warm = ModeIOCP(model, planes, replace(cold, ipopt_options={
             "warm_start_init_point": "no", "mu_init": 1e-4, **settings.ipopt_options}), min_violation=True,
@@ -169,11 +181,21 @@ class FeasibilityTest:
         return self.problem.plan_within_bounds(hs, us) and self.min_clearance(hs) >= self.settings.distance_margin
 
     def proves_f(self, sol: OCPSolution, p: np.ndarray) -> bool:
-        """The minimum-violation iterate `sol` (for parameters p = (h0, h_ref, current)) as a proof
-        that F is not empty: slack sum within the tolerance, and its inputs re-simulated from h0 by
-        the model's RK4 pass `plan_is_feasible` (as the screens' plans must)."""
+        """Stop.SLACK: the minimum-violation iterate `sol` (for parameters p = (h0, h_ref, current))
+        as a proof that F is not empty: constraints within FEASIBLE_VIOLATION, slack sum within the
+        tolerance, and `is_witness`."""
+        return (sol.violation <= FEASIBLE_VIOLATION and float(np.sum(sol.slack)) <= self.tolerance
+                and self.is_witness(sol, p))
+
+    def is_witness(self, sol: OCPSolution, p: np.ndarray) -> bool:
+        """Stop.WITNESS: whether the iterate's inputs, re-simulated from h0 by the model's RK4, pass
+        `plan_is_feasible` (p = (h0, h_ref, current)): a point of F by the screens' own test,
+        whatever the iterate's slacks and dynamics residuals. Keeps the re-simulated states."""
         ns = self.model.n_states
-        return float(np.sum(sol.slack)) <= self.tolerance and self.resimulated_is_feasible(p[:ns], sol.u, p[2 * ns:])
+        hs = simulate(self.model, p[:ns], sol.u, self.settings.dt, current=p[2 * ns:])
+        ok = self.plan_is_feasible(hs, sol.u)
+        self._witness = hs if ok else None
+        return ok
 
     def resimulated_is_feasible(self, h0: np.ndarray, us: np.ndarray, current: np.ndarray | None = None) -> bool:
         """Whether inputs us (N, nu), re-simulated from h0 by the model's RK4, pass `plan_is_feasible`."""
@@ -225,8 +247,9 @@ class FeasibilityTest:
         if self.warm is not None and candidate is not None:
             sol = self.warm.solve(h0, h_ref, current, guess=self.warm.guess_from_rollout(*candidate))
         else:
-            sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(hs, us))
-            if self.retry and not sol.status.usable and candidate is not None:
+            start = candidate if self.plan_start and candidate is not None else (hs, us)
+            sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(*start))
+            if self.retry and not sol.status.usable and candidate is not None and start is not candidate:
                 sol = self.problem.solve(h0, h_ref, current, previous,
                                          guess=self.problem.guess_from_rollout(*candidate))
         return self.judge(sol, margin, time.perf_counter() - t0, hs, us)
@@ -234,7 +257,11 @@ class FeasibilityTest:
     def judge(self, sol: OCPSolution, rollout_clearance: float, seconds: float, hs: np.ndarray,
               us: np.ndarray) -> Certificate:
         """The verdict of a minimum-violation solution: F empty when its slack sum exceeds the
-        tolerance, or when IPOPT could not use its solve (violation inf). hs, us: the braking rollout."""
-        violation = float(np.sum(sol.slack)) if sol.status.usable else np.inf
+        tolerance, or when IPOPT could not use its solve (violation inf). hs, us: the braking rollout.
+        A witness (Stop.WITNESS) is a point of F: violation 0, its plan the re-simulated states."""
+        if sol.status is SolverStatus.STOPPED and self.stop is Stop.WITNESS:
+            sol, violation = replace(sol, h=self._witness), 0.0
+        else:
+            violation = float(np.sum(sol.slack)) if sol.status.usable else np.inf
         verdict = Verdict.FEASIBLE if violation <= self.tolerance else Verdict.INFEASIBLE
         return Certificate(verdict, Method.MINIMUM_VIOLATION, violation, rollout_clearance, seconds, sol, hs, us)

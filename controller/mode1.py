@@ -28,7 +28,7 @@ from controller.iterate_stop import IterateStop
 from controller.model import UVMSModel
 from controller.sqp import SQPSettings, StageSQP
 from controller.stage_nlp import StageProblem, build_solver
-from controller.transcription import FEASIBLE_VIOLATION, SolverStatus, clearances, ipopt_status, midpoint_residual
+from controller.transcription import SolverStatus, clearances, ipopt_status, midpoint_residual
 from uvms.scene import Plane
 
 PITCH = 4  # the pitch angle's index in the state h = (x, y, z, roll, pitch, yaw, q, nu, qdot)
@@ -104,9 +104,9 @@ class ModeIOCP:
         """`min_violation=True` builds the feasibility problem instead: every clearance constraint
         gets an L1 slack sigma >= 0 and the cost is sum(sigma) [m] (plus 1e-6 of the tracking cost
         as regularization); its optimum is 0 exactly when Mode I's feasible set is non-empty.
-        `stop` (IPOPT only): stop at the first iterate that satisfies the constraints within
-        FEASIBLE_VIOLATION and for which stop(its solution, the parameters (h0, h_ref, current))
-        holds; it is returned with status FEASIBLE (controller.iterate_stop)."""
+        `stop` (IPOPT only): stop at the first iterate for which stop(its solution, the parameters
+        (h0, h_ref, current)) holds (the solution's `violation`: the iterate's largest constraint
+        violation); it is returned with status STOPPED (controller.iterate_stop)."""
         if stop is not None and settings.solver is Solver.SQP and not min_violation:
             raise ValueError("stop needs IPOPT; allowed: stop=None with solver SQP")
         self.model, self.planes, self.settings, self.min_violation = model, tuple(planes), settings, min_violation
@@ -148,9 +148,8 @@ class ModeIOCP:
         self.stop = None
         if stop is not None:
             def accept(w: np.ndarray, g: np.ndarray) -> bool:
-                violation = self._violation(g)
-                return violation <= FEASIBLE_VIOLATION and stop(self._solution(
-                    w, SolverStatus.FEASIBLE, np.nan, -1, np.nan, np.zeros(0), np.zeros(0), violation), self._P)
+                return stop(self._solution(w, SolverStatus.STOPPED, np.nan, -1, np.nan, np.zeros(0), np.zeros(0),
+                                           self._violation(g)), self._P)
 
             self.stop = IterateStop(nw, ng, accept)
         callback = {"iteration_callback": self.stop} if self.stop is not None else {}
@@ -272,7 +271,7 @@ class ModeIOCP:
         inf_pr = st.get("iterations", {}).get("inf_pr", [np.nan])
         status, violation = ipopt_status(st), float(inf_pr[-1]) if inf_pr else np.nan
         if self.stop is not None and self.stop.fired:
-            status, violation = SolverStatus.FEASIBLE, self._violation(np.asarray(r["g"]).ravel())
+            status, violation = SolverStatus.STOPPED, self._violation(np.asarray(r["g"]).ravel())
         return self._solution(np.asarray(r["x"]).ravel(), status, elapsed, int(st["iter_count"]),
                               float(r["f"]), np.asarray(r["lam_g"]).ravel(), np.asarray(r["lam_x"]).ravel(), violation)
 

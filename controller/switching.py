@@ -88,7 +88,7 @@ from enum import Enum
 import numpy as np
 
 from controller.background_certificate import BackgroundCertificate
-from controller.feasibility import MIN_VIOLATION_MAX_ITER, Certificate, FeasibilityTest, Method, Verdict
+from controller.feasibility import MIN_VIOLATION_MAX_ITER, Certificate, FeasibilityTest, Method, Stop, Verdict
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
@@ -131,7 +131,8 @@ class SwitchingSettings:
     certificate_warm_start: bool = False  # minimum violation from Mode I's fresh plan (controller.feasibility)
     certificate_retry: bool = False  # minimum violation again from Mode I's fresh plan when IPOPT fails (feasibility)
     certificate_max_iter: int = MIN_VIOLATION_MAX_ITER  # the minimum-violation problem's IPOPT cap (feasibility)
-    certificate_stop: bool = True  # stop that IPOPT at its first point of F (controller.feasibility, iterate_stop)
+    certificate_stop: Stop = Stop.WITNESS  # where that IPOPT stops early (controller.feasibility, iterate_stop)
+    certificate_plan_start: bool = True  # that IPOPT from Mode I's fresh plan, else the braking rollout
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm (_deadline)
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh instead of HOLD (module doc)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
@@ -189,7 +190,7 @@ class SwitchingNMPC:
         self.feasibility = FeasibilityTest(model, planes, certified, settings.feasibility_tolerance,
                                            settings.certificate_search, settings.certificate_warm_start,
                                            settings.certificate_retry, settings.certificate_max_iter,
-                                           settings.certificate_stop)
+                                           settings.certificate_stop, settings.certificate_plan_start)
         self._background = BackgroundCertificate(self.feasibility) if (
             settings.background_certificate and settings.switching and settings.minimum_violation) else None
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))
@@ -333,7 +334,7 @@ class SwitchingNMPC:
                                 minimum_violation=self.settings.minimum_violation and not release and not background) \
             if self.settings.switching else None
         if background:
-            cert = self._background_verdict(h, ref, t, cert)
+            cert = self._background_verdict(h, ref, t, cert, (fresh["h"], fresh["sol"].u) if "h" in fresh else None)
         self._release_probe = cert if release else None
         if release and cert.verdict is not Verdict.FEASIBLE:
             return None
@@ -367,11 +368,13 @@ class SwitchingNMPC:
         hs, us = self.feasibility.braking_rollout(h, self.current)
         return us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, None, cert
 
-    def _background_verdict(self, h: np.ndarray, ref: np.ndarray, t: float, cert: Certificate) -> Certificate:
+    def _background_verdict(self, h: np.ndarray, ref: np.ndarray, t: float, cert: Certificate,
+                            plan: tuple[np.ndarray, np.ndarray] | None) -> Certificate:
         """With `background_certificate`: a screen's point of F stands (a background verdict, now
         stale, is dropped); else the finished background verdict when there is one (on an older
         state; with this step's braking rollout, which picks the contact plane), and a new job from
-        this state when that verdict does not end Mode I and none runs; else PENDING."""
+        this state (from `plan`, Mode I's fresh plan, when there is one) when that verdict does not
+        end Mode I and none runs; else PENDING."""
         bg = self._background
         if cert.verdict is Verdict.FEASIBLE:
             bg.discard()
@@ -383,7 +386,7 @@ class SwitchingNMPC:
             if done.verdict is Verdict.INFEASIBLE:
                 return done
         if not bg.busy:
-            bg.submit(h, ref, self.current, cert, t)
+            bg.submit(h, ref, self.current, cert, t, plan)
         return done if done is not None else replace(cert, verdict=Verdict.PENDING, method=Method.MINIMUM_VIOLATION)
 
     def _short_of_contact(self, h: np.ndarray) -> bool:

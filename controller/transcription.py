@@ -24,18 +24,22 @@ class SolverStatus(Enum):
     that satisfies every constraint (violation below FEASIBLE_VIOLATION): a usable, suboptimal
     plan. REAL_TIME: the SQP's real-time iteration (controller.sqp) stopped at its iteration
     budget after a successful QP: the plan satisfies the constraints linearized at the warm start,
-    not yet the nonlinear ones (its violation is in the result): usable, as in RTI schemes."""
+    not yet the nonlinear ones (its violation is in the result): usable, as in RTI schemes.
+    STOPPED: IPOPT stopped at an iterate that the caller's test accepted (controller.iterate_stop);
+    that test, not the iterate's constraint violation, says what the iterate is good for."""
 
     SUCCESS = "success"
     FEASIBLE = "feasible, not optimal"
     REAL_TIME = "real-time iterate"
+    STOPPED = "stopped by the caller's test"
     MAX_ITER = "max_iter"
     INFEASIBLE = "infeasible"
     FAILED = "failed"
 
     @property
     def usable(self) -> bool:
-        return self in (SolverStatus.SUCCESS, SolverStatus.FEASIBLE, SolverStatus.REAL_TIME)
+        return self in (SolverStatus.SUCCESS, SolverStatus.FEASIBLE, SolverStatus.REAL_TIME,
+                        SolverStatus.STOPPED)
 
 
 FEASIBLE_VIOLATION = 1e-5  # largest constraint violation (m, N, N m) of a usable iterate at the iteration cap

@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from controller.feasibility import Stop
 from controller.mode1 import ModeISettings
 from controller.mode3 import ModeIIISettings
 from controller.switching import Fallback, SwitchingSettings, SwitchReason
@@ -249,8 +250,8 @@ def test_mode_three_failed_entry_redeploys_instead_of_holding_the_arm_rigid(tmp_
     Oracle: MuJoCo's contacts."""
     out = {}
     for redeploy in (False, True):
-        settings = SwitchingSettings(redeploy=redeploy, mode3=ModeIIISettings(max_iter=5), certificate_stop=False,
-                                     mode1=ModeISettings(pitch_limit=None))
+        settings = SwitchingSettings(redeploy=redeploy, mode3=ModeIIISettings(max_iter=5), certificate_stop=Stop.NONE,
+                                     certificate_plan_start=False, mode1=ModeISettings(pitch_limit=None))
         s = run(replace(get("wall-oblique"), duration=2.5), out=tmp_path / str(redeploy), mismatch=DEFAULT, seed=10,
                 settings=settings)
         steps = json.loads((tmp_path / str(redeploy) / "summary.json").read_text())["steps"]

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controller.feasibility import Certificate, FeasibilityTest, Method, Verdict
+from controller.feasibility import Certificate, FeasibilityTest, Method, Stop, Verdict
 from controller.mode1 import PITCH, ModeISettings
 from controller.model import UVMSModel
 from controller.rollouts import simulate
@@ -35,12 +35,14 @@ def sharp(params, scene) -> FeasibilityTest:
     """The certificate as it was until 2026-12-01, where the opt-in screens below were measured and
     are run: on the sharp model (validation.closed_loop.SHARP: the superellipsoids smoothed at 1e-7
     m), without the pitch bound and with IPOPT run to its end (no stop)."""
-    return FeasibilityTest(UVMSModel(params, scene.water, SHARP), scene.planes, AS_MEASURED, stop=False)
+    return FeasibilityTest(UVMSModel(params, scene.water, SHARP), scene.planes, AS_MEASURED, stop=Stop.NONE,
+                           plan_start=False)
 
 
 @pytest.fixture(scope="module")
 def sharp_searching(sharp, scene) -> FeasibilityTest:
-    return FeasibilityTest(sharp.model, scene.planes, AS_MEASURED, search_iterations=20, stop=False)
+    return FeasibilityTest(sharp.model, scene.planes, AS_MEASURED, search_iterations=20, stop=Stop.NONE,
+                           plan_start=False)
 
 
 def approach(params, gap: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -208,7 +210,7 @@ def test_warm_start_finds_F_where_the_default_start_fails(sharp, scene) -> None:
     RK4 (20 substeps an interval, the recorded current) stay within bounds and keep every body at
     least the 2 cm margin off (measured 4.9 cm)."""
     rec = np.load(Path(__file__).parent / "data" / "wall_headon_certificate_call.npz")
-    warm = FeasibilityTest(sharp.model, scene.planes, AS_MEASURED, warm_start=True, stop=False)
+    warm = FeasibilityTest(sharp.model, scene.planes, AS_MEASURED, warm_start=True, stop=Stop.NONE)
     fresh = (rec["fresh_h"], rec["fresh_u"])
     verdicts = []
     for test in (sharp, warm):
@@ -235,7 +237,7 @@ def test_retry_from_the_fresh_plan_finds_F_where_the_first_start_fails(sharp, sc
     plan's inputs re-simulated by RK4 (20 substeps an interval, the recorded current) stay within
     bounds and keep every body at least the 2 cm margin off (measured 4.9 cm)."""
     rec = np.load(Path(__file__).parent / "data" / "wall_headon_certificate_call.npz")
-    retrying = FeasibilityTest(sharp.model, scene.planes, AS_MEASURED, retry=True, stop=False)
+    retrying = FeasibilityTest(sharp.model, scene.planes, AS_MEASURED, retry=True, stop=Stop.NONE, plan_start=False)
     retrying.limit_inputs(rec["input_lo"], rec["input_hi"])
     c = retrying(rec["h0"], rec["h_ref"], rec["current"], fresh=lambda: (rec["fresh_h"], rec["fresh_u"]))
     assert (c.verdict, c.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
@@ -255,10 +257,10 @@ def oblique_call() -> tuple[UVMSModel, tuple, dict, Certificate]:
     controller_params, scene, _, _ = build_plant(scenarios.get("wall-oblique"), mismatch.DEFAULT, 1)
     rec = dict(np.load(Path(__file__).parent / "data" / "wall_oblique_certificate_call.npz"))
     model = UVMSModel(controller_params, scene.water)
-    return model, scene.planes, rec, certify(model, scene.planes, rec, AS_MEASURED, stop=False)[1]
+    return model, scene.planes, rec, certify(model, scene.planes, rec, AS_MEASURED, stop=Stop.NONE)[1]
 
 
-def certify(model: UVMSModel, planes, rec: dict, settings: ModeISettings, stop: bool) -> tuple[FeasibilityTest,
+def certify(model: UVMSModel, planes, rec: dict, settings: ModeISettings, stop: Stop) -> tuple[FeasibilityTest,
                                                                                                 Certificate]:
     test = FeasibilityTest(model, planes, settings, stop=stop)
     test.limit_inputs(rec["input_lo"], rec["input_hi"])
@@ -274,7 +276,7 @@ def test_stop_at_the_first_point_of_F_removes_a_false_unavoidable(oblique_call) 
     Oracle: the plan's inputs re-simulated by RK4 (20 substeps an interval, not the 4 of the stop's
     own check) stay within bounds and keep every body at least the 2 cm margin off (measured 5.6 cm)."""
     model, planes, rec, walked = oblique_call
-    test, stopped = certify(model, planes, rec, AS_MEASURED, stop=True)
+    test, stopped = certify(model, planes, rec, AS_MEASURED, stop=Stop.SLACK)
     assert walked.verdict is Verdict.INFEASIBLE and walked.violation == np.inf
     assert walked.solution.iterations == test.problem.settings.max_iter
     assert (stopped.verdict, stopped.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
@@ -291,10 +293,41 @@ def test_pitch_bound_keeps_the_certificate_off_the_euler_singularity(oblique_cal
     violation. Oracle: that plan's inputs re-simulated by RK4 (20 substeps an interval) keep every
     body the 2 cm margin off, within the input, joint and pitch bounds."""
     model, planes, rec, unbounded = oblique_call
-    test, bounded = certify(model, planes, rec, ModeISettings(), stop=False)
+    test, bounded = certify(model, planes, rec, ModeISettings(), stop=Stop.NONE)
     assert unbounded.verdict is Verdict.INFEASIBLE and np.abs(unbounded.solution.h[:, PITCH]).max() > np.pi / 2
     assert (bounded.verdict, bounded.method) == (Verdict.FEASIBLE, Method.MINIMUM_VIOLATION)
     assert bounded.solution.status is SolverStatus.SUCCESS
     hs = simulate(model, rec["h0"], bounded.solution.u, test.settings.dt, substeps=20, current=rec["current"])
     assert test.plan_is_feasible(hs, bounded.solution.u)
     assert np.abs(hs[:, PITCH]).max() <= test.settings.pitch_limit
+
+
+@pytest.mark.slow
+def test_witness_from_mode_one_plan_proves_F_in_a_few_iterations(params) -> None:
+    """The default minimum-violation start and stop (Mode I's fresh plan; Stop.WITNESS) on a certificate
+    call of a MuJoCo closed loop (wall-oblique, mismatch seed 1; recorded in tests/data with the fresh
+    plan, which, re-simulated, puts a body 24 cm through the wall, so every screen fails): IPOPT stops
+    at its third iterate, whose inputs re-simulated are a point of F, where the fifth session's
+    certificate (from the braking rollout, stopped only once its slacks sum to 1 mm: Stop.SLACK) needs
+    137 iterations for the same verdict. Oracle: the witness's inputs re-simulated by RK4 at 20
+    substeps an interval (the stop's own check uses 4) stay within bounds and keep every body at least
+    the 2 cm margin off (measured 5.5 cm)."""
+    from validation import mismatch, scenarios
+    from validation.closed_loop import build_plant
+
+    controller_params, scene, _, _ = build_plant(scenarios.get("wall-oblique"), mismatch.DEFAULT, 1)
+    model = UVMSModel(controller_params, scene.water)
+    rec = dict(np.load(Path(__file__).parent / "data" / "wall_oblique_fresh_plan_call.npz"))
+    out = {}
+    for stop, plan_start in ((Stop.WITNESS, True), (Stop.SLACK, False)):
+        test = FeasibilityTest(model, scene.planes, stop=stop, plan_start=plan_start)
+        test.limit_inputs(rec["input_lo"], rec["input_hi"])
+        out[stop] = test(rec["h0"], rec["h_ref"], rec["current"], fresh=lambda: (rec["fresh_h"], rec["fresh_u"]))
+    assert not test.plan_is_feasible(rec["fresh_h"], rec["fresh_u"])
+    witness, slack = out[Stop.WITNESS], out[Stop.SLACK]
+    assert (witness.verdict, witness.method) == (slack.verdict, slack.method) == (Verdict.FEASIBLE,
+                                                                                   Method.MINIMUM_VIOLATION)
+    assert witness.solution.status is SolverStatus.STOPPED and witness.violation == 0.0
+    assert 5 * witness.solution.iterations < slack.solution.iterations
+    hs = simulate(model, rec["h0"], witness.solution.u, test.settings.dt, substeps=20, current=rec["current"])
+    assert test.plan_is_feasible(hs, witness.solution.u)

@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.feasibility import Certificate
+from controller.feasibility import Certificate, Stop
 from controller.model import ModelOptions, UVMSModel
 from controller.rollouts import BrakingPolicy
 from controller.sqp import QPMode
@@ -218,7 +218,16 @@ def _before_pitch_bound_and_stop(variant: Callable[[SwitchingSettings], Switchin
     """The variant as it was before the fifth session of 2026-12-01 (every variant measured before
     it): the certificate's minimum-violation IPOPT run to its end, not stopped at its first proof
     of F (`certificate_stop`), and Mode I's OCPs without their pitch bound (`pitch_limit`)."""
-    return lambda s: variant(replace(s, certificate_stop=False, mode1=replace(s.mode1, pitch_limit=None)))
+    return lambda s: variant(replace(s, certificate_stop=Stop.NONE, certificate_plan_start=False,
+                                     mode1=replace(s.mode1, pitch_limit=None)))
+
+
+def _before_witness(variant: Callable[[SwitchingSettings], SwitchingSettings]
+                    ) -> Callable[[SwitchingSettings], SwitchingSettings]:
+    """The variant as it was measured in the fifth session of 2026-12-01: the certificate's
+    minimum-violation IPOPT started from the braking rollout and stopped at its first iterate with
+    slacks within the tolerance (Stop.SLACK), not at its first RK4 witness from Mode I's plan."""
+    return lambda s: variant(replace(s, certificate_stop=Stop.SLACK, certificate_plan_start=False))
 
 
 def _as_measured(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
@@ -280,8 +289,10 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "switching": lambda s: s,
     "mode1-only": lambda s: replace(s, switching=False),
     "braking": lambda s: s,
+    # the default of the fifth session of 2026-12-01 (bench/results/pitch_stop, pitch_stop_thrusters):
+    "switching-slack-stop": _before_witness(lambda s: s),
     # F asked to keep CERTIFICATE_MARGIN (4 cm) instead of Mode I's 2 cm (bench/results/certificate_margin):
-    "switching-certificate-margin": lambda s: replace(s, certificate_margin=CERTIFICATE_MARGIN),
+    "switching-certificate-margin": _before_witness(lambda s: replace(s, certificate_margin=CERTIFICATE_MARGIN)),
     **{name: _before_pitch_bound_and_stop(f) for name, f in _MEASURED_BEFORE_PITCH_BOUND.items()},
 }
 # The model each controller plans on, when it is not ModelOptions() (the default).
