@@ -9,13 +9,16 @@ when they fail it starts the minimum-violation problem from the measured state o
 Mode I's real-time plan (Verdict.PENDING). A later step takes the finished verdict: it judges the
 state the job started from, `Certificate.age` seconds older than the step's. A screen that
 certifies F at a later step makes a running job's verdict stale, and it is dropped; so is one that
-finishes after the controller left Mode I.
+finishes after the controller left Mode I. With a `wait` (SwitchingSettings.certificate_wait) the
+step that starts a job waits that long for it: a job done by then gives its verdict at once, on the
+step's own state, as the synchronous certificate does; a longer one goes on in the background.
 """
 
 from __future__ import annotations
 
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import wait as futures_wait
 from dataclasses import replace
 
 import numpy as np
@@ -59,9 +62,12 @@ class BackgroundCertificate:
         sol = self.test.problem.solve(h0, h_ref, current, guess=guess)
         return self.test.judge(sol, clearance, time.perf_counter() - t0, hs, us)
 
-    def take(self, t: float) -> Certificate | None:
-        """The finished job's certificate, once, aged to time t [s]; None while it runs, when there
-        is none, or when it went stale."""
+    def take(self, t: float, wait: float = 0.0) -> Certificate | None:
+        """The finished job's certificate, once, aged to time t [s], after waiting up to `wait` [s]
+        of wall clock for a running job; None while it runs, when there is none, or when it went
+        stale."""
+        if self._job is not None and wait > 0:
+            futures_wait([self._job], timeout=wait)
         if self._job is None or not self._job.done():
             return None
         job, self._job = self._job, None

@@ -42,7 +42,10 @@ real-time plan (Verdict.PENDING); its verdict, on the state it started from, dec
 step after it is done. Meant for real time (validation.closed_loop's `--latency measured`), where
 the synchronous certificate's 0.5-2.5 s would otherwise hold the previous input; when the plant
 waits for the controller the verdict comes after as many periods as the job's wall time spans, so
-runs are not reproducible to the step.
+runs are not reproducible to the step. With `certificate_wait` > 0 the step that starts a job waits
+that long for it: most minimum-violation problems, started from Mode I's plan and stopped at their
+first witness, end within a few iterations (bench/results/min_violation_stop.md), and then decide
+on the step's own state as the synchronous certificate does.
 
 The deploy deadline (`deploy_deadline`, on by default since 2026-12-01; not in the paper): also
 leave Mode I, with F not found empty, when the certificate's braking rollout brings a body that
@@ -138,6 +141,7 @@ class SwitchingSettings:
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     minimum_violation: bool = True  # False: the certificate's screens alone decide (F taken as empty if none certifies)
     background_certificate: bool = False  # the minimum-violation problem on a second thread (module doc)
+    certificate_wait: float = 0.0  # s: ... and how long a step waits for the job it starts (background_certificate)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0)
     certified_release: bool = False  # ... and only once Mode I's certificate screens find a point of F (module doc)
@@ -374,20 +378,20 @@ class SwitchingNMPC:
         stale, is dropped); else the finished background verdict when there is one (on an older
         state; with this step's braking rollout, which picks the contact plane), and a new job from
         this state (from `plan`, Mode I's fresh plan, when there is one) when that verdict does not
-        end Mode I and none runs; else PENDING."""
+        end Mode I and none runs, whose verdict counts at once if it is done within
+        `certificate_wait`; else PENDING."""
         bg = self._background
         if cert.verdict is Verdict.FEASIBLE:
             bg.discard()
             return cert
         done = bg.take(t)
-        if done is not None:
-            done = replace(done, rollout=cert.rollout, rollout_inputs=cert.rollout_inputs,
-                           rollout_clearance=cert.rollout_clearance)
-            if done.verdict is Verdict.INFEASIBLE:
-                return done
-        if not bg.busy:
+        if (done is None or done.verdict is not Verdict.INFEASIBLE) and not bg.busy:
             bg.submit(h, ref, self.current, cert, t, plan)
-        return done if done is not None else replace(cert, verdict=Verdict.PENDING, method=Method.MINIMUM_VIOLATION)
+            done = bg.take(t, self.settings.certificate_wait) or done
+        if done is None:
+            return replace(cert, verdict=Verdict.PENDING, method=Method.MINIMUM_VIOLATION)
+        return replace(done, rollout=cert.rollout, rollout_inputs=cert.rollout_inputs,
+                       rollout_clearance=cert.rollout_clearance)
 
     def _short_of_contact(self, h: np.ndarray) -> bool:
         """With `contact_tolerance`: whether the tip is further than that from the contact plane

@@ -201,3 +201,26 @@ def test_background_certificate_switches_on_the_synchronous_verdict_later(params
     assert c.verdict is Verdict.INFEASIBLE and c.violation == expected.violation and c.age == pytest.approx(0.3)
     lo, hi = params.input_bounds()
     assert np.all(np.isfinite(u)) and np.all(u >= lo) and np.all(u <= hi)
+
+
+@pytest.mark.slow
+def test_background_certificate_waited_for_is_the_synchronous_verdict(params, scene) -> None:
+    """SwitchingSettings(background_certificate=True, certificate_wait=...) (opt-in): a step that waits
+    for the job it starts long enough (60 s here) decides on its own state, as the synchronous
+    certificate does. Oracle: the synchronous controller's first step on the same unavoidable oblique
+    approach (the previous test's), whose switch, verdict and minimum violation the waited-for
+    background one must equal to the bit (same problem, same start, another thread), at age 0."""
+    from controller.feasibility import FeasibilityTest, Verdict
+    from controller.switching import SwitchReason
+    from validation.certificate_accuracy import approach
+
+    model = UVMSModel(params, scene.water)
+    h, ref = approach(FeasibilityTest(model, scene.planes), 0.01, 30.0, 1.1 * 0.783)
+    infos = [SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(
+        background_certificate=background, certificate_wait=60.0 * background, deploy_deadline=False,
+        prebuild=False)).step(h, 0.0)[1] for background in (False, True)]
+    synchronous, waited = infos
+    assert synchronous.mode is Mode.II and synchronous.switch is SwitchReason.F_EMPTY
+    assert (waited.mode, waited.switch) == (synchronous.mode, synchronous.switch)
+    assert synchronous.certificate.verdict is waited.certificate.verdict is Verdict.INFEASIBLE
+    assert waited.certificate.violation == synchronous.certificate.violation and waited.certificate.age == 0.0
