@@ -20,19 +20,23 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    time to deploy the arm: wall-headon without mismatch then ends with an arm link on the wall
    (13.7 N s) instead of I > II > III > I (the note on issue 4).
 2. Otherwise solve the minimum-violation problem (Mode I with an L1 slack on every clearance
-   constraint, cost sum(slack)), started from that rollout (slacks just large enough, so the start
-   is feasible). Its optimum is 0 exactly when F is non-empty, so F is declared empty when the
-   minimum violation exceeds `tolerance` [m] (summed over nodes and bodies). By default (`stop`)
-   IPOPT stops at its first iterate that proves F non-empty: slacks summing to at most the
-   tolerance, the OCP's constraints within FEASIBLE_VIOLATION, and inputs that, re-simulated by
-   RK4 from the measured state, pass the screens' test (`proves_f`; the midpoint rule alone also
-   admits plans that RK4 does not reproduce). Without it IPOPT could pass such a point, walk away
-   and end at its cap with slacks of metres. Mode I's pitch bound (ModeISettings.pitch_limit) keeps
-   the iterates off the Euler angles' singularity, where they used to wander. On 210 problems
-   recorded in 17 MuJoCo runs (bench/results/min_violation_stop.md): without either, 40 'unavoidable'
-   (nearly all at the iteration cap), 132 iterations median, 24.9 s at most; with the bound, 2,
-   84 iterations, 3.2 s; with the bound and the stop (the default), the same verdicts in 77
-   iterations median, 3.6 s at most. The problem is not
+   constraint, cost sum(slack)), started from the fresh Mode I plan when there is one, else from
+   that rollout (slacks just large enough, so the start is feasible). Its optimum is 0 exactly when
+   F is non-empty, so F is declared empty when the minimum violation exceeds `tolerance` [m]
+   (summed over nodes and bodies). By default (Stop.WITNESS) IPOPT stops at its first iterate whose
+   inputs, re-simulated by RK4 from the measured state, pass the screens' test (`is_witness`): a
+   point of F by the screens' own standard, whatever the iterate's slacks and dynamics residuals;
+   the certificate then carries that re-simulated plan. An interior-point iterate keeps every
+   slack near the barrier parameter, so waiting for the slacks to sum to the tolerance (Stop.SLACK,
+   the fifth session's stop, `proves_f`) means waiting for the barrier to fall to about 1e-6.
+   Mode I's pitch bound (ModeISettings.pitch_limit) keeps the iterates off the Euler angles'
+   singularity, where they used to wander. On 210 problems recorded in 17 MuJoCo runs
+   (bench/results/min_violation_stop.md; solve times median / p95 / max): without the bound or a
+   stop, 40 'unavoidable' (nearly all at the iteration cap), 132 iterations median, 25 s at most;
+   with the bound, 2 'unavoidable', 84 iterations, 0.63 / 1.28 / 2.5 s; with the slack stop too,
+   the same verdicts in 77; with the witness stop from the braking rollout, 26; from Mode I's plan
+   (the default), the same verdicts in 3 iterations median (43 p95), 0.05 / 0.52 / 3.8 s (the
+   maximum: the two 'unavoidable' ones, at the cap). The problem is not
    convex: a positive local minimum is strong evidence, not a proof, that F is empty (two starts
    gave 2.5 and 12.8 cm on the same unavoidable case). An iterate that IPOPT leaves feasible at its
    iteration cap counts with its slack sum (an upper bound on the minimum). If IPOPT fails on this
@@ -218,12 +222,15 @@ class FeasibilityTest:
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
                  previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None,
                  fresh: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None,
-                 minimum_violation: bool = True) -> Certificate:
+                 minimum_violation: bool = True, needed: Callable[[Certificate], bool] | None = None
+                 ) -> Certificate:
         """The verdict for the measured state h0. `plan`: the previous Mode I plan shifted by one
         interval, as (states re-simulated from h0, inputs): the second screen. `fresh`: called
         when the screens before it fail, returns a new Mode I plan in the same form (or None): the
         third. With `minimum_violation=False` the screens alone decide: UNDECIDED when none of them
-        finds a point of F (fast: no IPOPT)."""
+        finds a point of F (fast: no IPOPT). `needed`: called with that UNDECIDED certificate
+        before the minimum-violation problem; when it returns False (the caller's decision does
+        not depend on the answer) the problem is not solved and that certificate is returned."""
         t0 = time.perf_counter()
         hs, us = self.braking_rollout(h0, current)
         margin = self.min_clearance(hs) - self.settings.distance_margin
@@ -241,9 +248,10 @@ class FeasibilityTest:
         sol = self.search_plan(h0, h_ref, plan if plan is not None else (hs, us), current)
         if sol is not None:
             return found(Method.GLOBALIZED_SQP, sol)
-        if not minimum_violation:
-            return Certificate(Verdict.UNDECIDED, Method.SCREENS, np.nan, margin, time.perf_counter() - t0, None, hs,
-                               us)
+        undecided = Certificate(Verdict.UNDECIDED, Method.SCREENS, np.nan, margin, time.perf_counter() - t0, None,
+                                hs, us)
+        if not minimum_violation or (needed is not None and not needed(undecided)):
+            return undecided
         if self.warm is not None and candidate is not None:
             sol = self.warm.solve(h0, h_ref, current, guess=self.warm.guess_from_rollout(*candidate))
         else:

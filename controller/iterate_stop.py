@@ -1,10 +1,11 @@
 """Stop IPOPT at an iterate that already answers the question (CasADi's `iteration_callback`).
 
-The certificate's minimum-violation problem (controller.feasibility) asks one thing: is there a
-point with zero slack that satisfies the dynamics? Its first such iterate is that proof; the rest
-of IPOPT's run only optimizes the 1e-6 tracking regularization and the complementarity, and on
-hard problems it could walk away from the point again and end at its iteration cap with slacks of
-metres (recorded MuJoCo problems: bench/results/min_violation_stop.md).
+The certificate's minimum-violation problem (controller.feasibility) asks one thing: is F, Mode I's
+feasible set, non-empty? Its first iterate whose inputs, re-simulated, are a point of F answers it;
+the rest of IPOPT's run only drives the slacks of inactive constraints to zero with the barrier and
+optimizes the 1e-6 tracking regularization, and on hard problems it could walk away from such a
+point and end at its iteration cap with slacks of metres (recorded MuJoCo problems:
+bench/results/min_violation_stop.md).
 """
 
 from __future__ import annotations

@@ -137,6 +137,7 @@ class SwitchingSettings:
     certificate_stop: Stop = Stop.WITNESS  # where that IPOPT stops early (controller.feasibility, iterate_stop)
     certificate_plan_start: bool = True  # that IPOPT from Mode I's fresh plan, else the braking rollout
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm (_deadline)
+    deadline_first: bool = True  # ask the deadline before the minimum-violation problem, and skip that when it fires
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh instead of HOLD (module doc)
     certificate_search: int = 0  # the certificate's line-search SQP screen, iterations (0: off; controller.feasibility)
     minimum_violation: bool = True  # False: the certificate's screens alone decide (F taken as empty if none certifies)
@@ -334,8 +335,16 @@ class SwitchingNMPC:
             return fresh["h"], sol.u
 
         background = self._background is not None and not release
+        deadline: list[bool] = []  # the deploy deadline, when it was asked before the minimum-violation problem
+
+        def needed(screened: Certificate) -> bool:
+            """Whether F's answer still matters: not when the deploy deadline switches either way."""
+            deadline.append(self._deadline(h, screened))
+            return not deadline[-1]
+
         cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now,
-                                minimum_violation=self.settings.minimum_violation and not release and not background) \
+                                minimum_violation=self.settings.minimum_violation and not release and not background,
+                                needed=needed if self.settings.deadline_first else None) \
             if self.settings.switching else None
         if background:
             cert = self._background_verdict(h, ref, t, cert, (fresh["h"], fresh["sol"].u) if "h" in fresh else None)
@@ -344,9 +353,11 @@ class SwitchingNMPC:
             return None
         if cert is not None and cert.verdict is Verdict.INFEASIBLE:
             self._switch = SwitchReason.F_EMPTY if np.isfinite(cert.violation) else SwitchReason.SOLVER_FAILURE
+        elif deadline and deadline[-1]:
+            self._switch = SwitchReason.DEPLOY_DEADLINE
         elif cert is not None and cert.verdict is Verdict.UNDECIDED:
             self._switch = SwitchReason.NOT_CERTIFIED
-        elif cert is not None and not release and self._deadline(h, cert):
+        elif cert is not None and not release and not deadline and self._deadline(h, cert):
             self._switch = SwitchReason.DEPLOY_DEADLINE
         if self._switch is not None:
             if self._background is not None:

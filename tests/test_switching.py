@@ -224,3 +224,26 @@ def test_background_certificate_waited_for_is_the_synchronous_verdict(params, sc
     assert (waited.mode, waited.switch) == (synchronous.mode, synchronous.switch)
     assert synchronous.certificate.verdict is waited.certificate.verdict is Verdict.INFEASIBLE
     assert waited.certificate.violation == synchronous.certificate.violation and waited.certificate.age == 0.0
+
+
+@pytest.mark.slow
+def test_deadline_first_skips_a_question_whose_answer_changes_nothing(params, scene) -> None:
+    """SwitchingSettings.deadline_first (default): on the unavoidable oblique approach above (closest
+    body 1 cm off the wall at 0.86 m/s), the deploy deadline fires at the first step, so the step
+    switches to Mode II whatever the minimum-violation problem would say, and it is not solved (the
+    certificate stays the screens' UNDECIDED one). Oracle: the same step with the problem solved
+    first (deadline_first=False), which switches on F's emptiness instead, and whose input the
+    skipping step must equal to the bit (Mode II's step does not depend on the verdict)."""
+    from controller.feasibility import FeasibilityTest, Method, Verdict
+    from controller.switching import SwitchReason
+    from validation.certificate_accuracy import approach
+
+    model = UVMSModel(params, scene.water)
+    h, ref = approach(FeasibilityTest(model, scene.planes), 0.01, 30.0, 1.1 * 0.783)
+    (u_skip, skip), (u_asked, asked) = [SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(
+        deadline_first=first, prebuild=False)).step(h, 0.0) for first in (True, False)]
+    assert skip.mode is asked.mode is Mode.II
+    assert skip.switch is SwitchReason.DEPLOY_DEADLINE and asked.switch is SwitchReason.F_EMPTY
+    assert (skip.certificate.verdict, skip.certificate.method) == (Verdict.UNDECIDED, Method.SCREENS)
+    assert asked.certificate.method is Method.MINIMUM_VIOLATION
+    assert np.array_equal(u_skip, u_asked)

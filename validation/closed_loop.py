@@ -217,8 +217,9 @@ def _before_pitch_bound_and_stop(variant: Callable[[SwitchingSettings], Switchin
                   ) -> Callable[[SwitchingSettings], SwitchingSettings]:
     """The variant as it was before the fifth session of 2026-12-01 (every variant measured before
     it): the certificate's minimum-violation IPOPT run to its end, not stopped at its first proof
-    of F (`certificate_stop`), and Mode I's OCPs without their pitch bound (`pitch_limit`)."""
-    return lambda s: variant(replace(s, certificate_stop=Stop.NONE, certificate_plan_start=False,
+    of F (`certificate_stop`), from the braking rollout, also when the deploy deadline switches either
+    way (`deadline_first`), and Mode I's OCPs without their pitch bound (`pitch_limit`)."""
+    return lambda s: variant(replace(s, certificate_stop=Stop.NONE, certificate_plan_start=False, deadline_first=False,
                                      mode1=replace(s.mode1, pitch_limit=None)))
 
 
@@ -226,8 +227,10 @@ def _before_witness(variant: Callable[[SwitchingSettings], SwitchingSettings]
                     ) -> Callable[[SwitchingSettings], SwitchingSettings]:
     """The variant as it was measured in the fifth session of 2026-12-01: the certificate's
     minimum-violation IPOPT started from the braking rollout and stopped at its first iterate with
-    slacks within the tolerance (Stop.SLACK), not at its first RK4 witness from Mode I's plan."""
-    return lambda s: variant(replace(s, certificate_stop=Stop.SLACK, certificate_plan_start=False))
+    slacks within the tolerance (Stop.SLACK), not at its first RK4 witness from Mode I's plan, and
+    solved even when the deploy deadline switches either way (`deadline_first`)."""
+    return lambda s: variant(replace(s, certificate_stop=Stop.SLACK, certificate_plan_start=False,
+                                     deadline_first=False))
 
 
 def _as_measured(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
