@@ -49,6 +49,7 @@ class BackgroundCertificate:
         job runs (one at a time)."""
         if self.busy:
             raise RuntimeError("BackgroundCertificate.submit: a job is running; allowed: one at a time")
+        self._cancel(False)
         start = plan if plan is not None and self.test.plan_start else (screened.rollout, screened.rollout_inputs)
         hs, us = start[0].copy(), start[1].copy()
         guess = self.test.problem.guess_from_rollout(hs, us)
@@ -74,8 +75,16 @@ class BackgroundCertificate:
         cert = job.result()
         return None if self._stale else replace(cert, age=t - self._started)
 
+    def _cancel(self, cancelled: bool) -> None:
+        """Set the problem's stop to end (True) or to let run (False) the worker's IPOPT."""
+        if self.test.problem.stop is not None:
+            self.test.problem.stop.cancelled = cancelled
+
     def discard(self) -> None:
-        """Drop the verdict of the running or finished job (the state it judges no longer matters)."""
+        """Drop the verdict of the running or finished job (the state it judges no longer matters);
+        a running IPOPT stops at its next iteration (with Stop.NONE, which has no callback, it runs
+        to its end)."""
         self._stale = True
+        self._cancel(True)
         if self._job is not None and self._job.done():
             self._job = None

@@ -247,3 +247,29 @@ def test_deadline_first_skips_a_question_whose_answer_changes_nothing(params, sc
     assert (skip.certificate.verdict, skip.certificate.method) == (Verdict.UNDECIDED, Method.SCREENS)
     assert asked.certificate.method is Method.MINIMUM_VIOLATION
     assert np.array_equal(u_skip, u_asked)
+
+
+@pytest.mark.slow
+def test_discarded_background_job_stops_at_its_next_iteration(params, scene) -> None:
+    """BackgroundCertificate.discard (a switch, or a screen's point of F, made the job's state moot)
+    stops the worker's IPOPT at its next iteration instead of letting it run on beside the steps
+    that follow. Oracle: the same minimum-violation problem solved synchronously on the unavoidable
+    oblique approach above, which takes 67 iterations (0.74 s) to its positive minimum; the discarded
+    job ends unaccepted after fewer than half of them (measured: 0, within 12 ms), and its verdict is
+    never taken."""
+    from controller.background_certificate import BackgroundCertificate
+    from controller.feasibility import FeasibilityTest, Method
+    from controller.transcription import SolverStatus
+    from validation.certificate_accuracy import approach
+
+    test = FeasibilityTest(UVMSModel(params, scene.water), scene.planes)
+    h, ref = approach(test, 0.01, 30.0, 1.1 * 0.783)
+    full = test(h, ref)
+    assert full.method is Method.MINIMUM_VIOLATION and full.solution.iterations >= 20
+    bg = BackgroundCertificate(test)
+    bg.submit(h, ref, np.zeros(3), test(h, ref, minimum_violation=False), 0.0)
+    job = bg._job
+    bg.discard()
+    cancelled = job.result(timeout=60).solution
+    assert cancelled.status is SolverStatus.FAILED and cancelled.iterations < full.solution.iterations // 2
+    assert bg.take(1.0) is None and not bg.busy
