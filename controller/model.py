@@ -101,6 +101,8 @@ class UVMSModel:
         self._distance_functions(h, kin)
         self.rk4 = self._rk4(h, u, Fw, Rw, vc, ac, dt)
         self._rk4_compiled: NumpyCall | None = None
+        self._held: dict[int, NumpyCall] = {}  # held_steps' compiled functions, by number of substeps
+        self._mass_bias: NumpyCall | None = None
 
     # ------------------------------------------------------------------------------------------
     def _kane(self, h, u, Fw, Rw, vc, ac):
@@ -277,6 +279,34 @@ class UVMSModel:
         Fw, Rw, vc, ac = self.defaults(Fw, Rw, vc, ac)
         out = self._rk4_compiled(h, u, Fw, np.asarray(Rw, float).T, vc, ac, np.array([dt], float))
         return out[0].copy()
+
+    def mass_and_bias(self, h, vc=None) -> tuple[np.ndarray, np.ndarray]:
+        """The mass matrix M(q) and the bias (N, N m; `bias` with the water moving at vc [m/s])
+        from numpy arrays, in one compiled call (the SX functions' values, without their per-call cost)."""
+        if self._mass_bias is None:
+            h_, vc_, ac_ = (ca.SX.sym(n, self.bias.size_in(i)) for i, n in enumerate(("h", "vc", "ac")))
+            mb = ca.Function("mass_bias", [h_, vc_, ac_], [self.mass_matrix(h_), self.bias(h_, vc_, ac_)])
+            self._mass_bias = NumpyCall(compiled([mb], f"mass_bias_{self.params.name}_{self.params.arm.name}")[
+                "mass_bias"])
+        _, _, vc, ac = self.defaults(None, None, vc, None)
+        M, b = self._mass_bias(h, vc, ac)
+        n = self.n_speeds
+        return M.reshape(n, n, order="F").copy(), b.copy()
+
+    def held_steps(self, h, u, dt: float, substeps: int, vc=None) -> np.ndarray:
+        """`substeps` RK4 steps of dt / substeps [s] each, u held, no contact, in one compiled call:
+        `step` called `substeps` times (the same C code for each step, so the same arithmetic),
+        without its per-call overhead (about 4x fewer calls from Python in a rollout)."""
+        if substeps not in self._held:
+            args = [ca.MX.sym(n, self.rk4.size_in(i)) for i, n in enumerate(("h", "u", "Fw", "Rw", "vc", "ac", "dt"))]
+            x = args[0]
+            for _ in range(substeps):
+                x = self.rk4(x, *args[1:6], args[6] / substeps)
+            held = ca.Function(f"held{substeps}", args, [x])
+            name = f"held{substeps}_{self.params.name}_{self.params.arm.name}"
+            self._held[substeps] = NumpyCall(compiled([held], name)[held.name()])
+        Fw, Rw, vc, ac = self.defaults(None, None, vc, None)
+        return self._held[substeps](h, u, Fw, Rw.T, vc, ac, np.array([dt], float))[0].copy()
 
 
 def _validate(p: UVMSParams) -> None:

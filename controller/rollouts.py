@@ -53,8 +53,7 @@ class BrakingPolicy:
         moving = np.abs(brake) > 1e-12
         scale = np.min(room[moving] / brake[moving]) if np.any(moving) else 0.0
         thrust = base + max(scale, 0.0) * brake
-        M = np.asarray(model.mass_matrix(h))
-        b = np.asarray(model.bias(h, vc, np.zeros(3))).ravel()
+        M, b = model.mass_and_bias(h, vc)
         a_hull = np.linalg.solve(M[:6, :6], self._B @ thrust - b[:6])
         tau = (M[6:, :6] @ a_hull + b[6:] + self.hold.stiffness * (posture - h[6:6 + n])
                - self.hold.damping * h[12 + n:])
@@ -67,10 +66,7 @@ def simulate(model: UVMSModel, h0: np.ndarray, us: np.ndarray, dt: float, subste
     model's RK4 in `substeps` (the Final Algorithm's recomputed trajectory)."""
     hs = [np.asarray(h0, float)]
     for u in us:
-        h = hs[-1]
-        for _ in range(substeps):
-            h = model.step(h, u, dt / substeps, vc=current)
-        hs.append(h)
+        hs.append(model.held_steps(hs[-1], u, dt, substeps, vc=current))
     return np.array(hs)
 
 

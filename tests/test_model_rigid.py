@@ -38,11 +38,15 @@ def setup(request, scene):
 def test_mass_matrix_and_bias_equal_both_oracles(setup) -> None:
     """100 random states per arm: M(q) and the bias b(q, nu) = -(Coriolis + gravity) equal
     Pinocchio's (crba, rnea) and MuJoCo's (mj_fullM, qfrc_bias, mapped to the paper's speeds) to
-    1e-8 relative (the issue's tolerance; the three agree to ~1e-14)."""
+    1e-8 relative (the issue's tolerance; the three agree to ~1e-14). So does the compiled
+    `mass_and_bias` (the braking rollout's), which must also equal the SX functions to the bit (the
+    same operations in C)."""
     p, model, oracles = setup
     for h in random_states(p, 100, seed=p.n_joints):
         M = np.asarray(model.mass_matrix(h))
         b = np.asarray(model.bias(h, np.zeros(3), np.zeros(3))).ravel()
+        M_c, b_c = model.mass_and_bias(h)
+        assert np.array_equal(M_c, M) and np.array_equal(b_c, b)
         for oracle in oracles:
             M_ref, b_ref = oracle.mass_matrix(h), oracle.bias(h)
             assert np.linalg.norm(M - M_ref) <= 1e-8 * np.linalg.norm(M_ref), type(oracle).__name__
@@ -66,3 +70,19 @@ def test_forward_kinematics_and_jacobian_equal_both_oracles(setup) -> None:
             np.testing.assert_allclose(x_ee.ravel(), poses.ee_position, atol=1e-10)
             np.testing.assert_allclose(R_ee, poses.ee_rotation, atol=1e-10)
             np.testing.assert_allclose(Jv, oracle.ee_jacobian(h), atol=1e-10)
+
+
+def test_held_steps_are_the_steps_in_one_call(scene) -> None:
+    """UVMSModel.held_steps (the rollouts' interval: 4 RK4 substeps, input held, one compiled call)
+    against 4 calls of UVMSModel.step with the same input and a current: equal to the bit (the same
+    C code for each substep), on 20 random states and inputs within the bounds."""
+    p = load_params()
+    model = UVMSModel(p, scene.water)
+    rng = np.random.default_rng(4)
+    lo, hi = p.input_bounds()
+    for h in random_states(p, 20, seed=4):
+        u, vc = rng.uniform(lo, hi), rng.normal(0, 0.2, 3)
+        x = h
+        for _ in range(4):
+            x = model.step(x, u, 0.1 / 4, vc=vc)
+        assert np.array_equal(model.held_steps(h, u, 0.1, 4, vc=vc), x)
