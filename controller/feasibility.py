@@ -201,14 +201,15 @@ class FeasibilityTest:
         `plan_is_feasible` (p = (h0, h_ref, current)): a point of F by the screens' own test,
         whatever the iterate's slacks and dynamics residuals. Keeps the re-simulated states."""
         ns = self.model.n_states
-        hs = simulate(self.model, p[:ns], sol.u, self.settings.dt, current=p[2 * ns:])
-        ok = self.plan_is_feasible(hs, sol.u)
-        self._witness = hs if ok else None
-        return ok
+        self._witness = self.resimulated_if_feasible(p[:ns], sol.u, p[2 * ns:])
+        return self._witness is not None
 
-    def resimulated_is_feasible(self, h0: np.ndarray, us: np.ndarray, current: np.ndarray | None = None) -> bool:
-        """Whether inputs us (N, nu), re-simulated from h0 by the model's RK4, pass `plan_is_feasible`."""
-        return self.plan_is_feasible(simulate(self.model, h0, us, self.settings.dt, current=current), us)
+    def resimulated_if_feasible(self, h0: np.ndarray, us: np.ndarray, current: np.ndarray | None = None
+                                ) -> np.ndarray | None:
+        """The states (N+1, ns) of inputs us (N, nu) re-simulated from h0 by the model's RK4 when
+        they pass `plan_is_feasible`, else None."""
+        hs = simulate(self.model, h0, us, self.settings.dt, current=current)
+        return hs if self.plan_is_feasible(hs, us) else None
 
     def search_plan(self, h0: np.ndarray, h_ref: np.ndarray, start: tuple[np.ndarray, np.ndarray],
                     current: np.ndarray | None = None) -> OCPSolution | None:
@@ -220,7 +221,7 @@ class FeasibilityTest:
         sol = self.search.solve(h0, h_ref, current, guess=self.search.guess_from_rollout(*start),
                                 sqp=self.search_settings)
         if sol.status.usable and (sol.violation <= FEASIBLE_VIOLATION or
-                                  self.resimulated_is_feasible(h0, sol.u, current)):
+                                  self.resimulated_if_feasible(h0, sol.u, current) is not None):
             return sol
         return None
 
