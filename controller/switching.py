@@ -335,12 +335,13 @@ class SwitchingNMPC:
             return fresh["h"], sol.u
 
         background = self._background is not None and not release
-        deadline: list[bool] = []  # the deploy deadline, when it was asked before the minimum-violation problem
+        deadline: bool | None = None  # the deploy deadline, when it was asked before the minimum-violation problem
 
         def needed(screened: Certificate) -> bool:
             """Whether F's answer still matters: not when the deploy deadline switches either way."""
-            deadline.append(self._deadline(h, screened))
-            return not deadline[-1]
+            nonlocal deadline
+            deadline = self._deadline(h, screened)
+            return not deadline
 
         cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now,
                                 minimum_violation=self.settings.minimum_violation and not release and not background,
@@ -353,11 +354,11 @@ class SwitchingNMPC:
             return None
         if cert is not None and cert.verdict is Verdict.INFEASIBLE:
             self._switch = SwitchReason.F_EMPTY if np.isfinite(cert.violation) else SwitchReason.SOLVER_FAILURE
-        elif deadline and deadline[-1]:
+        elif deadline:
             self._switch = SwitchReason.DEPLOY_DEADLINE
         elif cert is not None and cert.verdict is Verdict.UNDECIDED:
             self._switch = SwitchReason.NOT_CERTIFIED
-        elif cert is not None and not release and not deadline and self._deadline(h, cert):
+        elif cert is not None and not release and deadline is None and self._deadline(h, cert):
             self._switch = SwitchReason.DEPLOY_DEADLINE
         if self._switch is not None:
             if self._background is not None:
