@@ -284,10 +284,11 @@ class SwitchingNMPC:
         if h.shape != (self.model.n_states,) or not np.all(np.isfinite(h)):
             raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
                              f"{self.model.n_states} finite numbers")
-        t0 = time.perf_counter()
-        distances, closing = self._geometry(h)
-        delay = self._delay()
-        h_plan = self._predicted(h, delay) if delay > 0 else h  # (the last step's mode and plan decide the contact)
+        measured = self._geometry(h)
+        t_measured, delay, closing = t, self._delay(), measured[1]
+        if delay > 0:
+            h, t = self._predicted(h, delay), t + delay
+            closing = self._geometry(h)[1]
         release = False  # Mode III's hold on the wall ends this step if Mode I's screens certify F
         if self.mode is Mode.III and self._reported_mode is Mode.III:
             if self._mode3_fell_back:
@@ -301,23 +302,24 @@ class SwitchingNMPC:
                 self.mode, self._plan = Mode.I, None
             else:  # Mode II afresh: Algorithm 1's entry from the measured state
                 self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
+        t0 = time.perf_counter()
         self._switch, self._release_probe = None, None
-        out = self._step_mode1(h_plan, t + delay, release=True) if release else None
+        out = self._step_mode1(h, t, release=True) if release else None
         if out is not None:
             self.mode = Mode.I
         elif self.mode is Mode.I:
-            out = self._step_mode1(h_plan, t + delay)
+            out = self._step_mode1(h, t)
         elif self.mode is Mode.II:
-            out = self._step_mode2(h_plan)
+            out = self._step_mode2(h)
         else:
-            out = self._step_mode3(h_plan)
+            out = self._step_mode3(h)
         u, status, fallback, iterations, dt, N, hp, up, F, cert = out
         self._last_u = np.clip(u, self.lo, self.hi)
         self._last_time = time.perf_counter() - t0
-        info = StepInfo(t=t, mode=self._reported_mode, status=status, fallback=fallback,
+        info = StepInfo(t=t_measured, mode=self._reported_mode, status=status, fallback=fallback,
                         solve_time=self._last_time, ocp_time=self._ocp_time, iterations=iterations, dt=dt,
                         horizon=N, h_pred=hp, u_pred=up, contact_force=F, contact_plane=self.contact,
-                        distances=distances, closing_speeds=closing, certificate=cert, switch=self._switch,
+                        distances=measured[0], closing_speeds=measured[1], certificate=cert, switch=self._switch,
                         delay=delay)
         return self._last_u, info
 

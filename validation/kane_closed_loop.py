@@ -57,11 +57,8 @@ class Run:
         return [m for k, m in enumerate(seq) if k == 0 or seq[k - 1] is not m]
 
 
-def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: ModelOptions | None = None,
-        latency: float = 0.0) -> Run:
-    """The scenario in closed loop on the model (planning on `options`'s model, simulated on it too).
-    `latency` [s]: each step's input reaches the plant this long after the measurement, the previous
-    input held until then (as validation.closed_loop's fixed --latency; none at the first step)."""
+def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: ModelOptions | None = None) -> Run:
+    """The scenario in closed loop on the model (planning on `options`'s model, simulated on it too)."""
     params, scene = load_params(), load_scene()
     model = UVMSModel(params, scene.water, options or ModelOptions())
     base = settings or SwitchingSettings()
@@ -71,23 +68,21 @@ def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: 
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
     plant = ModelPlant(model, scene.planes, h, current=np.asarray(scenario.current))
     infos, times, dist, peak, force, vel = [], [], [], [], [], []
-    t, u_prev = 0.0, None
+    t = 0.0
     failed = False
     while t < scenario.duration - 1e-9:
         if not failed and t >= scenario.fail_at - 1e-9:
             ctl.set_failed_thrusters(scenario.failed_thrusters)
             plant.failed, failed = list(scenario.failed_thrusters), True
         u, info = ctl.step(plant.h, t)
-        delay = latency if u_prev is not None else 0.0
-        segments = [(u_prev, delay), (u, info.dt - delay)] if delay > 0 else [(u, info.dt)]
-        reports = [(plant.step(u_seg, duration), duration) for u_seg, duration in segments if duration > 1e-9]
+        report = plant.step(u, info.dt)
         infos.append(info)
         times.append(t)
-        dist.append(min(float(r.min_distance[walls[0], 0]) for r, _ in reports))
-        peak.append(max(r.tip_force_peak for r, _ in reports))
-        force.append(sum(r.tip_force_mean * d for r, d in reports) / sum(d for _, d in reports))
-        vel.append(reports[-1][0].tip_velocity)
-        t, u_prev = t + max(info.dt, delay), u
+        dist.append(float(report.min_distance[walls[0], 0]))
+        peak.append(report.tip_force_peak)
+        force.append(report.tip_force_mean)
+        vel.append(report.tip_velocity)
+        t += info.dt
     return Run(scenario, infos, np.array(times), np.array(dist), np.array(peak), np.array(force), np.array(vel))
 
 
