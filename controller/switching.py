@@ -100,8 +100,6 @@ from controller.rollouts import BrakingPolicy, JointHold, simulate
 from controller.transcription import tip_gap
 from uvms.scene import Plane
 
-PREDICTION_STEP = 0.025  # s, the longest RK4 step of the input-delay prediction (the re-simulation's)
-
 
 class Mode(Enum):
     I = "I"  # noqa: E741 (the paper's name)
@@ -152,7 +150,6 @@ class SwitchingSettings:
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     prebuild: bool = True  # build Modes II and III for every plane at construction (else at first use)
-    input_delay: float | None = 0.0  # s: plan from the state this far ahead (module doc; None: the last step's time)
 
 
 @dataclass(frozen=True)
@@ -176,7 +173,6 @@ class StepInfo:
     closing_speeds: np.ndarray  # (n_planes, n_bodies) m/s
     certificate: Certificate | None  # Mode I's feasibility test, when it ran
     switch: SwitchReason | None = None  # set on the step that left Mode I for Mode II
-    delay: float = 0.0  # s, the input delay this step planned for (SwitchingSettings.input_delay)
 
 
 class SwitchingNMPC:
@@ -216,7 +212,6 @@ class SwitchingNMPC:
         self._recomputed = np.zeros((0, model.n_states))  # the Mode III plan's states from its inputs
         self._horizon2 = settings.mode2.horizon
         self._last_u = np.zeros(model.n_inputs)
-        self._last_time: float | None = None  # s, the last step's wall time (None: no step yet)
         self._reported_mode = Mode.I
         self._mode3_fell_back = False  # the last Mode III step could not use its solve
         self._switch: SwitchReason | None = None  # why this step left Mode I
@@ -284,11 +279,7 @@ class SwitchingNMPC:
         if h.shape != (self.model.n_states,) or not np.all(np.isfinite(h)):
             raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
                              f"{self.model.n_states} finite numbers")
-        measured = self._geometry(h)
-        t_measured, delay, closing = t, self._delay(), measured[1]
-        if delay > 0:
-            h, t = self._predicted(h, delay), t + delay
-            closing = self._geometry(h)[1]
+        distances, closing = self._geometry(h)
         release = False  # Mode III's hold on the wall ends this step if Mode I's screens certify F
         if self.mode is Mode.III and self._reported_mode is Mode.III:
             if self._mode3_fell_back:
@@ -315,33 +306,11 @@ class SwitchingNMPC:
             out = self._step_mode3(h)
         u, status, fallback, iterations, dt, N, hp, up, F, cert = out
         self._last_u = np.clip(u, self.lo, self.hi)
-        self._last_time = time.perf_counter() - t0
-        info = StepInfo(t=t_measured, mode=self._reported_mode, status=status, fallback=fallback,
-                        solve_time=self._last_time, ocp_time=self._ocp_time, iterations=iterations, dt=dt,
+        info = StepInfo(t=t, mode=self._reported_mode, status=status, fallback=fallback,
+                        solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=iterations, dt=dt,
                         horizon=N, h_pred=hp, u_pred=up, contact_force=F, contact_plane=self.contact,
-                        distances=measured[0], closing_speeds=measured[1], certificate=cert, switch=self._switch,
-                        delay=delay)
+                        distances=distances, closing_speeds=closing, certificate=cert, switch=self._switch)
         return self._last_u, info
-
-    def _delay(self) -> float:
-        """The input delay to plan for [s]: none at the first step (no input is held yet), else
-        `input_delay`, or with None the last step's own wall time."""
-        if self._last_time is None:
-            return 0.0
-        return self._last_time if self.settings.input_delay is None else self.settings.input_delay
-
-    def _predicted(self, h: np.ndarray, delay: float) -> np.ndarray:
-        """The state `delay` s after the measurement h, while the plant holds the last step's input:
-        the model's RK4 in steps of at most PREDICTION_STEP, with Mode III's planned contact force
-        and the tip put back on the plane when the arm holds the wall."""
-        steps = max(1, int(np.ceil(delay / PREDICTION_STEP - 1e-9)))
-        ocp3 = self.ocp3(self.contact) if self.mode is Mode.III and isinstance(self._plan, ModeIIISolution) else None
-        Fw = np.concatenate([self._plan.force[0], np.zeros(3)]) if ocp3 is not None else None
-        for _ in range(steps):
-            h = self.model.step(h, self._last_u, delay / steps, Fw=Fw, Rw=ocp3.Rw if ocp3 else None, vc=self.current)
-        if ocp3 is not None:
-            h[6:6 + self.model.n_joints] = ocp3.onto_plane(h)
-        return h
 
     def _step_mode1(self, h: np.ndarray, t: float, release: bool = False):
         """Mode I's step. With `release` (from Mode III): only if the certificate's screens find a

@@ -294,9 +294,6 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "braking": lambda s: s,
     # the minimum-violation problem on a second thread, each step waiting up to 50 ms for the job it starts:
     "switching-background-50ms": lambda s: replace(s, background_certificate=True, certificate_wait=0.05),
-    # plan from the state predicted 0.1 s ahead (--latency 0.1), or the last step's wall time ahead (measured):
-    "switching-predict-0.1": lambda s: replace(s, input_delay=0.1),
-    "switching-predict": lambda s: replace(s, input_delay=None),
     # the default of the fifth session of 2026-12-01 (bench/results/pitch_stop, pitch_stop_thrusters):
     "switching-slack-stop": _before_witness(lambda s: s),
     # F asked to keep CERTIFICATE_MARGIN (4 cm) instead of Mode I's 2 cm (bench/results/certificate_margin):
