@@ -34,12 +34,13 @@ from controller.sqp import SQPSettings
 
 OUT = Path(__file__).parent / "results" / "mode3_sqp.md"
 IPOPT = "IPOPT, warm start (the default)"
+ALONE = "SQP alone, to convergence (<= 30 iterations)"
 SOLVERS: dict[str, ModeIIISettings] = {
     IPOPT: ModeIIISettings(),
-    "SQP, 2 iterations": ModeIIISettings(solver=Solver.SQP, sqp=SQPSettings(max_iter=2)),
-    "SQP, 3 iterations": ModeIIISettings(solver=Solver.SQP, sqp=SQPSettings(max_iter=3)),
-    "SQP, 5 iterations": ModeIIISettings(solver=Solver.SQP, sqp=SQPSettings(max_iter=5)),
-    "SQP to convergence (<= 30 iterations)": ModeIIISettings(solver=Solver.SQP, sqp=SQPSettings(max_iter=30)),
+    **{f"SQP, {n} iterations{floor_name}, then IPOPT if not usable": ModeIIISettings(
+        solver=Solver.SQP, sqp=SQPSettings(max_iter=n, real_time=False, hessian_floor=floor))
+       for n in (3, 5) for floor_name, floor in (("", 1e-6), (", Hessian floor 10", 10.0))},
+    ALONE: ModeIIISettings(solver=Solver.SQP, sqp=SQPSettings(max_iter=30)),
 }
 
 
@@ -61,7 +62,7 @@ def evaluate() -> None:
             ocp.limit_inputs(data["lo"][i], data["hi"][i])
             rows[name].append(ocp.solve(data["h0"][i], data["guess"][i], data["current"][i],
                                         (data["lam_g"][i], data["lam_x"][i])))
-    judges = ocps["SQP, 3 iterations"]  # per contact plane: any SQP's evaluate() judges every solver's plan alike
+    judges = ocps[ALONE]  # per contact plane: one SQP's evaluate() judges every solver's plan alike
     lines = ["# Mode III: SQP against IPOPT on recorded problems", "",
              f"`python bench/mode3_sqp.py` ({platform.machine()}, casadi {ca.__version__}). {len(warm)} warm-started "
              f"Mode III problems (of {len(cold)}; the {int(cold.sum())} cold ones stay IPOPT's) that the default "

@@ -92,8 +92,8 @@ class ModeIIISettings:
     max_iter: int = 200
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
-    solver: Solver = Solver.IPOPT  # SQP: the warm-started solves by controller.sqp (the cold one stays IPOPT's)
-    sqp: SQPSettings = field(default_factory=lambda: SQPSettings(max_iter=3))
+    solver: Solver = Solver.IPOPT  # SQP: warm-started solves by controller.sqp first (see ModeIIIOCP.solve)
+    sqp: SQPSettings = field(default_factory=lambda: SQPSettings(max_iter=3, real_time=False))
 
 
 @dataclass(frozen=True)
@@ -346,19 +346,25 @@ class ModeIIIOCP:
         duals: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> ModeIIISolution:
         """Solve from h0 with a primal guess; with `duals` (lam_g, lam_x, e.g. `shifted_duals`) by the
-        warm-start solver, else by the cold one (Algorithm 2's guess)."""
+        warm-start solver, else by the cold one (Algorithm 2's guess). With Solver.SQP a warm start goes
+        to the SQP first (its iterations budget `sqp.max_iter`), and to IPOPT only when the SQP's plan is
+        not usable (then the solve's time and iterations are both solvers' together); not the default:
+        bench/results/mode3_sqp.md."""
         lbw, ubw = self.bounds()
         s = self.settings
         P = np.concatenate([h0, np.zeros(3) if current is None else current, [s.hull_clearance, s.clearance_weight],
                             self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
-        solver = self.solver
+        solver, spent, sqp_iterations = self.solver, 0.0, 0
         if duals is not None and self.sqp is not None:
             res = self.sqp.solve(args["x0"], P, lbw, ubw, self.lbg[self.ns:], self.ubg[self.ns:])
-            hs, us, Fs = self.unpack(res.w)
-            zeros = np.zeros(len(self.lbg)), np.zeros(len(lbw))
-            return ModeIIISolution(res.status, hs, us, Fs, res.solve_time, res.iterations, res.cost, res.w, *zeros)
-        if duals is not None:
+            if res.status.usable:
+                hs, us, Fs = self.unpack(res.w)
+                zeros = np.zeros(len(self.lbg)), np.zeros(len(lbw))  # (no multipliers: the next warm start is SQP's)
+                return ModeIIISolution(res.status, hs, us, Fs, res.solve_time, res.iterations, res.cost, res.w,
+                                       *zeros)
+            spent, sqp_iterations = res.solve_time, res.iterations
+        if duals is not None and (np.any(duals[0]) or np.any(duals[1])):  # (an SQP plan has none: the cold solver)
             args.update(lam_g0=duals[0], lam_x0=duals[1])
             solver = self.warm_solver
         t0 = time.perf_counter()
@@ -372,8 +378,8 @@ class ModeIIIOCP:
             hs,
             us,
             Fs,
-            elapsed,
-            int(st["iter_count"]),
+            elapsed + spent,
+            int(st["iter_count"]) + sqp_iterations,
             float(r["f"]),
             w,
             np.asarray(r["lam_g"]).ravel(),
