@@ -1,7 +1,7 @@
 """Mode III of the switching NMPC (paper Sec. IV-C): the end-effector stays on the obstacle and the
 manipulator's contact force pushes the hull away.
 
-Variables per stage: x_k = h_k, v_k = (u_k, F_k, a_k) with F_k = (F_n, F_t1, F_t2) the contact force
+Variables per stage: x_k = h_k, v_k = (u_k, a_k, F_k) with F_k = (F_n, F_t1, F_t2) the contact force
 on the end-effector in the obstacle frame (x along the plane's normal, controller.transcription.
 obstacle_frame). The tip is a sphere, so the contact transmits no torque. Constraints: the midpoint
 dynamics with F_k (controller.transcription), the tip on the plane at every node (eq.
@@ -58,9 +58,7 @@ import casadi as ca
 import numpy as np
 
 from controller.kinematics import euler_zyx
-from controller.mode1 import Solver
 from controller.model import UVMSModel
-from controller.sqp import CostHessian, SQPSettings, StageSQP
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import (
     SolverStatus,
@@ -92,8 +90,6 @@ class ModeIIISettings:
     max_iter: int = 200
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
-    solver: Solver = Solver.IPOPT  # SQP: warm-started solves by controller.sqp first (see ModeIIIOCP.solve)
-    sqp: SQPSettings = field(default_factory=lambda: SQPSettings(max_iter=3, real_time=False))
 
 
 @dataclass(frozen=True)
@@ -158,16 +154,14 @@ class ModeIIIOCP:
         friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
         self.n_clear = self._clearance.size1_out(0)
-        # (the dynamics and the friction law first, the tangential force and the accelerations last:
-        # they are what controller.sqp eliminates stage by stage)
         cons = ca.vertcat(
             midpoint_residual(model, h, u, a, h1, s.dt, vc, ca.vertcat(F, ca.SX.zeros(3)), ca.DM(self.Rw)),
-            friction,
             tip_gap(model, h1, plane),
+            friction,
             self._clearance(h1),
         )
         cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + 3], P[ns + 4])
-        st = ca.vertcat(h, u, F, a, h1)
+        st = ca.vertcat(h, u, a, F, h1)
         problem = StageProblem(
             nx=ns,
             nv=nu + nv + 3,
@@ -200,10 +194,6 @@ class ModeIIIOCP:
         warm = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
                 "mu_init": 1e-4}
         self.warm_solver = build_solver(problem, name, {**ipopt, **warm, **s.ipopt_options}, functions)
-        # the SQP eliminates the tangential force and the accelerations with the dynamics (the friction
-        # law gives F_t): its QP's controls are the inputs and F_n
-        self.sqp = StageSQP(problem, name, n_alg=nv + 2, settings=s.sqp, cost_hessian=CostHessian.PROJECTED) \
-            if s.solver is Solver.SQP else None
         self.weights = np.array([1 + (N - i) / (N - 1) if N > 1 else 1.0 for i in range(1, N + 1)])
         # bounds
         lo, hi = p.input_bounds()
@@ -238,7 +228,7 @@ class ModeIIIOCP:
                 lbw[i + 6 : i + 6 + n], ubw[i + 6 : i + 6 + n] = self._q_lo, self._q_hi
             if k < N:
                 lbw[i + ns : i + ns + nu], ubw[i + ns : i + ns + nu] = self._lo_u, self._hi_u
-                lbw[i + ns + nu], ubw[i + ns + nu] = 0.0, self.model.params.arm.tip_force_limit  # F_n
+                lbw[i + nz - 3], ubw[i + nz - 3] = 0.0, self.model.params.arm.tip_force_limit  # F_n
         return lbw, ubw
 
     # ------------------------------------------------------------------------------------------
@@ -318,7 +308,7 @@ class ModeIIIOCP:
         """The primal vector of states (N+1, ns), inputs (N, nu) and contact forces (N, 3), with the
         accelerations of the midpoint rule, (nu_k+1 - nu_k) / dt."""
         nv, dt = self.nv, self.settings.dt
-        blocks = [np.concatenate([hs[k], us[k], forces[k], (hs[k + 1][nv:] - hs[k][nv:]) / dt]) for k in range(len(us))]
+        blocks = [np.concatenate([hs[k], us[k], (hs[k + 1][nv:] - hs[k][nv:]) / dt, forces[k]]) for k in range(len(us))]
         return np.concatenate([*blocks, hs[-1]])
 
     def shifted_duals(self, sol: ModeIIISolution) -> tuple[np.ndarray, np.ndarray]:
@@ -335,7 +325,7 @@ class ModeIIIOCP:
         return (
             np.array([w[k * nz : k * nz + ns] for k in range(N + 1)]),
             np.array([w[k * nz + ns : k * nz + ns + nu] for k in range(N)]),
-            np.array([w[k * nz + ns + nu : k * nz + ns + nu + 3] for k in range(N)]),
+            np.array([w[(k + 1) * nz - 3 : (k + 1) * nz] for k in range(N)]),
         )
 
     def solve(
@@ -346,25 +336,14 @@ class ModeIIIOCP:
         duals: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> ModeIIISolution:
         """Solve from h0 with a primal guess; with `duals` (lam_g, lam_x, e.g. `shifted_duals`) by the
-        warm-start solver, else by the cold one (Algorithm 2's guess). With Solver.SQP a warm start goes
-        to the SQP first (its iterations budget `sqp.max_iter`), and to IPOPT only when the SQP's plan is
-        not usable (then the solve's time and iterations are both solvers' together); not the default:
-        bench/results/mode3_sqp.md."""
+        warm-start solver, else by the cold one (Algorithm 2's guess)."""
         lbw, ubw = self.bounds()
         s = self.settings
         P = np.concatenate([h0, np.zeros(3) if current is None else current, [s.hull_clearance, s.clearance_weight],
                             self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
-        solver, spent, sqp_iterations = self.solver, 0.0, 0
-        if duals is not None and self.sqp is not None:
-            res = self.sqp.solve(args["x0"], P, lbw, ubw, self.lbg[self.ns:], self.ubg[self.ns:])
-            if res.status.usable:
-                hs, us, Fs = self.unpack(res.w)
-                zeros = np.zeros(len(self.lbg)), np.zeros(len(lbw))  # (no multipliers: the next warm start is SQP's)
-                return ModeIIISolution(res.status, hs, us, Fs, res.solve_time, res.iterations, res.cost, res.w,
-                                       *zeros)
-            spent, sqp_iterations = res.solve_time, res.iterations
-        if duals is not None and (np.any(duals[0]) or np.any(duals[1])):  # (an SQP plan has none: the cold solver)
+        solver = self.solver
+        if duals is not None:
             args.update(lam_g0=duals[0], lam_x0=duals[1])
             solver = self.warm_solver
         t0 = time.perf_counter()
@@ -378,8 +357,8 @@ class ModeIIIOCP:
             hs,
             us,
             Fs,
-            elapsed + spent,
-            int(st["iter_count"]) + sqp_iterations,
+            elapsed,
+            int(st["iter_count"]),
             float(r["f"]),
             w,
             np.asarray(r["lam_g"]).ravel(),

@@ -55,17 +55,6 @@ class QPMode(Enum):
     ROBUST = "robust"
 
 
-class CostHessian(Enum):
-    """The QP's Hessian. DIAGONAL: the cost's own, constant and diagonal (checked at the first solve;
-    Mode I's quadratic tracking cost). PROJECTED: the cost's exact Hessian at each iterate, reduced
-    onto the stage's (dx_k, du_k) and projected onto the positive semidefinite cone stage by stage
-    (eigenvalues below `hessian_floor` raised to it), for costs that are not quadratic (Mode III's);
-    a fixed point is still a KKT point, since the Hessian only shapes the step."""
-
-    DIAGONAL = "diagonal"
-    PROJECTED = "projected"
-
-
 @dataclass(frozen=True)
 class SQPSettings:
     max_iter: int = 2  # SQP iterations per solve (1: the real-time iteration; see bench/results/nmpc_modes.md)
@@ -79,7 +68,6 @@ class SQPSettings:
     line_search: bool = False  # backtracking on the l1 merit function (else full steps)
     armijo: float = 1e-4  # sufficient-decrease fraction of the merit's directional derivative
     max_halvings: int = 10  # step halvings before the smallest step is taken anyway
-    hessian_floor: float = 1e-6  # CostHessian.PROJECTED: the reduced Hessian's smallest eigenvalue
 
 
 @dataclass(frozen=True)
@@ -117,21 +105,19 @@ class StageSQP:
     The cost must be a separable quadratic in the states and controls (its Hessian diagonal, without
     entries on the algebraic variables; evaluated once, at the first solve)."""
 
-    def __init__(self, problem: StageProblem, name: str, n_alg: int, settings: SQPSettings = SQPSettings(),
-                 cost_hessian: CostHessian = CostHessian.DIAGONAL):
+    def __init__(self, problem: StageProblem, name: str, n_alg: int, settings: SQPSettings = SQPSettings()):
         pr = problem
-        if pr.n_terminal or pr.terminal_cost is not None or pr.nf != pr.nx:
-            raise ValueError("StageSQP: terminal functions and partly fixed x_0 are not supported; allowed: "
-                             "stage costs and constraints with x_0 fixed to p[:nx]")
-        self.pr, self.settings, self.n_alg, self.cost_hessian = pr, settings, n_alg, cost_hessian
+        if pr.n_terminal or pr.terminal_cost is not None or pr.nf != pr.nx or pr.np_stage:
+            raise ValueError("StageSQP: terminal functions, partly fixed x_0 and stage parameters are not supported")
+        self.pr, self.settings, self.n_alg = pr, settings, n_alg
         N, nx, nv = pr.horizon, pr.nx, pr.nv
         self.nu = nv - n_alg  # the QP's controls per stage
         self.nd = nx + n_alg  # dynamics rows
         self.ng = pr.nc - self.nd  # path constraints per stage
         self.ns = 2 * nx + nv
         fn = stage_functions(pr, name)
-        S, P = ca.MX.sym("S", self.ns, N), ca.MX.sym("P", pr.n_p)
-        PN = ca.vertcat(ca.repmat(P[:pr.np], 1, N), ca.reshape(P[pr.np:], pr.np_stage, N))
+        S, P = ca.MX.sym("S", self.ns, N), ca.MX.sym("P", pr.np)
+        PN = ca.repmat(P, 1, N)
         c, J = fn[f"{name}_jac"].map(N)(S, PN)
         _, grad = fn[f"{name}_grad"].map(N)(S, PN)
         self._lin = NumpyCall(ca.Function("linearization", [S, P], [ca.densify(c), ca.densify(J), ca.densify(grad)]))
@@ -225,32 +211,21 @@ class StageSQP:
             alpha *= 0.5
         return alpha
 
-    def eliminate(self, J: np.ndarray, c: np.ndarray, grad: np.ndarray,
-                  H: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    def eliminate(self, J: np.ndarray, c: np.ndarray, grad: np.ndarray) -> tuple[np.ndarray, ...]:
         """The QP on (dx_k, du_k) of each stage from its linearization: constraint Jacobians J (N, nc,
         ns) and values c (N, nc), cost gradients grad (N, ns). The columns of s are (x_k | u_k | z_k |
         x_k+1); the dynamics rows give [dx_k+1; dz_k] = T [dx; du; 1], so s = E [dx; du; 1] with E =
         [I 0; 0 I; T_z; T_x1]. Returns T (N, nd, nxu + 1), the Hessian E^T diag(h) E (N, nxu, nxu) and
         gradient E^T (grad + diag(h) e) (N, nxu) of the cost, and the path rows' Jacobian J E (N, ng,
-        nxu) and values at [dx; du] = 0 (N, ng), written out on E's blocks (e: E's last column). With
-        the cost's full Hessians H (N, ns, ns) (CostHessian.PROJECTED), E^T H E instead, projected."""
+        nxu) and values at [dx; du] = 0 (N, ng), written out on E's blocks (e: E's last column)."""
         nd, nxu, dep, h = self.nd, self.pr.nx + self.nu, self._dep, self._h
         rhs = np.concatenate([J[:, :nd, :nxu], c[:, :nd, None]], axis=2)
         T = -np.linalg.solve(J[:, :nd, dep], rhs)
         W, t = T[:, :, :-1], T[:, :, -1]
         WT = W.transpose(0, 2, 1)
-        if H is None:
-            Hq = WT @ (h[:, dep, None] * W)
-            Hq[:, np.arange(nxu), np.arange(nxu)] += h[:, :nxu]
-            gq = grad[:, :nxu] + (WT @ (grad[:, dep] + h[:, dep] * t)[:, :, None])[:, :, 0]
-        else:
-            E = np.zeros((len(T), self.ns, nxu + 1))
-            E[:, np.arange(nxu), np.arange(nxu)] = 1.0
-            E[:, dep] = T
-            EHE = E.transpose(0, 2, 1) @ H @ E
-            gq = grad[:, :nxu] + (WT @ grad[:, dep, None])[:, :, 0] + EHE[:, :nxu, nxu]
-            lam, V = np.linalg.eigh(EHE[:, :nxu, :nxu])
-            Hq = (V * np.maximum(lam, self.settings.hessian_floor)[:, None, :]) @ V.transpose(0, 2, 1)
+        Hq = WT @ (h[:, dep, None] * W)
+        Hq[:, np.arange(nxu), np.arange(nxu)] += h[:, :nxu]
+        gq = grad[:, :nxu] + (WT @ (grad[:, dep] + h[:, dep] * t)[:, :, None])[:, :, 0]
         Jc_dep = J[:, nd:, dep]
         return T, Hq, gq, J[:, nd:, :nxu] + Jc_dep @ W, c[:, nd:] + (Jc_dep @ t[:, :, None])[:, :, 0]
 
@@ -268,7 +243,7 @@ class StageSQP:
         w = np.array(w0, float)
         lo_g = lbg.reshape(N, pr.nc)[:, nd:]
         hi_g = ubg.reshape(N, pr.nc)[:, nd:]
-        if self._h is None and self.cost_hessian is CostHessian.DIAGONAL:
+        if self._h is None:
             Hs = self._cost_hessian(self._stages(w), p)[0].reshape(N, ns, ns)
             h = np.diagonal(Hs, axis1=1, axis2=2).copy()
             if np.count_nonzero(Hs) != np.count_nonzero(h) or np.any(h[:, nxu:nz]):
@@ -282,9 +257,7 @@ class StageSQP:
             c = out[0].reshape(N, pr.nc)
             J = out[1].reshape(N, ns, pr.nc).transpose(0, 2, 1)  # (N, nc, ns)
             grad = out[2].reshape(N, ns)
-            H = self._cost_hessian(self._stages(w), p)[0].reshape(N, ns, ns) \
-                if self.cost_hessian is CostHessian.PROJECTED else None
-            T, Hq, gq, CD, ce = self.eliminate(J, c, grad, H)
+            T, Hq, gq, CD, ce = self.eliminate(J, c, grad)
             W, t = T[:, :, :-1], T[:, :, -1]
             # the QP in HPIPM's layout [dx_0, du_0, ..., dx_N]
             lba, uba = np.zeros((N, nx + ng)), np.zeros((N, nx + ng))

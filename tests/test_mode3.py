@@ -119,26 +119,3 @@ def test_clearance_term_pushes_a_hull_that_is_too_close_back_out(params, scene) 
     s = ModeIIISettings()
     assert ends[0] >= 0.18 - s.clearance_smoothing / 2
     assert ends[1] < 0.18
-
-
-@pytest.mark.slow
-def test_sqp_iterated_to_convergence_reaches_ipopts_optimum(contact_case, params, scene) -> None:
-    """ModeIIISettings(solver=Solver.SQP) (opt-in): the Gauss-Newton SQP of controller.sqp, with the
-    cost's Hessian projected stage by stage (CostHessian.PROJECTED) and the tangential force and the
-    accelerations eliminated with the dynamics, iterated to convergence from Algorithm 2's guess on
-    the contact case. Oracle: IPOPT with the exact Hessian on the same problem. The SQP must converge
-    (its step's largest entry below 1e-3) to the same plan: the first input within 1e-3 N (N m), the
-    step tolerance, and the cost within 1e-4 relative (IPOPT's tolerance bounds its scaled optimality
-    error, not the cost: measured 1e-5, the SQP's lower)."""
-    from controller.mode1 import Solver
-    from controller.sqp import SQPSettings
-
-    model, ipopt, h = contact_case
-    sqp = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings(solver=Solver.SQP, sqp=SQPSettings(max_iter=30)))
-    sqp.limit_inputs(ipopt._lo_u, ipopt._hi_u)
-    guess = ipopt.contact_guess(h, np.zeros((ipopt.settings.horizon, model.n_inputs)), None)
-    oracle = ipopt.solve(h, guess)
-    sol = sqp.solve(h, guess, duals=(np.zeros(0), np.zeros(0)))  # duals: the warm path, which the SQP takes
-    assert oracle.status is SolverStatus.SUCCESS and sol.status is SolverStatus.SUCCESS
-    assert np.abs(sol.u[0] - oracle.u[0]).max() < 1e-3
-    assert sol.cost == pytest.approx(oracle.cost, rel=1e-4)
