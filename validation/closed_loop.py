@@ -294,6 +294,8 @@ CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
     "braking": lambda s: s,
     # the minimum-violation problem on a second thread, each step waiting up to 50 ms for the job it starts:
     "switching-background-50ms": lambda s: replace(s, background_certificate=True, certificate_wait=0.05),
+    # Mode I's real-time iteration: one SQP iteration per period instead of two (bench/results/rti):
+    "switching-rti": lambda s: replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp, max_iter=1))),
     # the default of the fifth session of 2026-12-01 (bench/results/pitch_stop, pitch_stop_thrusters):
     "switching-slack-stop": _before_witness(lambda s: s),
     # F asked to keep CERTIFICATE_MARGIN (4 cm) instead of Mode I's 2 cm (bench/results/certificate_margin):
