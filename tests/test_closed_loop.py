@@ -31,11 +31,26 @@ def test_scenarios_are_listed_one_line_each(capsys) -> None:
                                   ["run", "avoid-wall", "--set", "speed=fast"],
                                   ["run", "avoid-wall", "--out", "/proc/forbidden/out"],
                                   ["run", "avoid-wall", "--latency", "fast"],
-                                  ["campaign", "--latency", "-0.1", "--out", "/tmp/uvms-never-written"]])
+                                  ["campaign", "--latency", "-0.1", "--out", "/tmp/uvms-never-written"],
+                                  ["run", "avoid-wall", "--latency", "0.1@IV"]])
 def test_bad_input_is_one_line_naming_what_is_allowed(argv, capsys) -> None:
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("uvms: error:") and "allowed" in err and "\n" not in err
+
+
+@pytest.mark.slow
+def test_a_delay_for_some_modes_delays_only_their_steps(tmp_path) -> None:
+    """latency "0.05@II,III" on the demo's approach (wall-headon, seed 0; Mode II from 0.30 s): the
+    steps computed in Modes II and III get the 0.05 s delay, those of Mode I none, as the spec
+    says; both kinds occur in the first 0.6 s. (That a delayed step holds the previous input is
+    the next test's.)"""
+    sc = replace(get("wall-headon"), duration=0.6)
+    s = run(sc, latency="0.05@II,III", out=tmp_path)
+    later = s["steps"][1:]
+    assert {st["mode"] for st in later} >= {"I", "II"}
+    for st in later:
+        assert st["delay"] == pytest.approx(0.05 if st["mode"] in ("II", "III") else 0.0), st
 
 
 def test_a_computation_delay_holds_the_previous_input(tmp_path, monkeypatch) -> None:

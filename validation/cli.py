@@ -107,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
     for parser in (run, camp):
         parser.add_argument("--latency", default="none",
                             help='computation delay: "none" (the plant waits for the controller; default), '
-                                 '"measured" (each step\'s own wall-clock time on this machine) or seconds')
+                                 '"measured" (each step\'s own wall-clock time on this machine) or seconds; '
+                                 '"@II,III" after it delays only the steps of those modes')
     args = ap.parse_args(argv)
     try:
         if args.command == "scenarios":

@@ -14,7 +14,8 @@ first step's input acts from t = 0 (the run starts when the controller's first p
 and its load), and the loop then runs no faster than real time (it waits before a step whose
 sample time is still ahead of the wall clock), so that work the controller does in the background
 (`switching-background`) takes as long in simulated time as it does in fact; a number of seconds
-is the same for every step (deterministic).
+is the same for every step (deterministic). A suffix "@MODES" (e.g. "0.1@II,III") delays only the
+steps computed in those modes, the others acting at once: which mode's delay costs what.
 
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
 tip, and only the tip, touch. A stowed arm that crashes into the wall before the hull does spares
@@ -32,7 +33,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless
 import json
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 from enum import Enum
 from functools import partial
 from pathlib import Path
@@ -97,20 +98,35 @@ def _pieces(duration: float, ts: float, longest: float) -> list[float]:
     return [int(n) * ts for n in np.diff(bounds)]
 
 
-def parse_latency(spec: str) -> float | None:
-    """The computation delay from its spec: "none" (0.0), "measured" (None: each step's own
-    wall-clock time), or a number of seconds >= 0."""
-    if spec == "none":
-        return 0.0
-    if spec == MEASURED:
-        return None
+@dataclass(frozen=True)
+class Latency:
+    """A computation delay (module docstring)."""
+
+    seconds: float | None  # the same for every step; None: each step's own wall-clock time ("measured")
+    modes: frozenset[Mode] = frozenset(Mode)  # the modes whose steps are delayed (the braking baseline: always)
+
+
+def parse_latency(spec: str) -> Latency:
+    """The computation delay from its spec: "none" (0 s), "measured", or a number of seconds >= 0,
+    optionally followed by "@" and the comma-separated modes whose steps it delays (default: all)."""
+    allowed = f"allowed: none, {MEASURED}, or a number of seconds >= 0, optionally @MODES such as @II,III"
+    delay, _, modes = spec.partition("@")
+    if delay == "none":
+        value: float | None = 0.0
+    elif delay == MEASURED:
+        value = None
+    else:
+        try:
+            value = float(delay)
+        except ValueError:
+            value = -1.0
+        if not (0.0 <= value < np.inf):
+            raise ValueError(f"latency {spec!r}; {allowed}")
     try:
-        value = float(spec)
+        chosen = frozenset(Mode(m) for m in modes.split(",")) if modes else frozenset(Mode)
     except ValueError:
-        value = -1.0
-    if not (0.0 <= value < np.inf):
-        raise ValueError(f"latency {spec!r}; allowed: none, {MEASURED}, or a number of seconds >= 0")
-    return value
+        raise ValueError(f"latency {spec!r}: unknown mode; {allowed}") from None
+    return Latency(value, chosen)
 
 
 def initial_state(params, sc: Scenario) -> tuple[np.ndarray, np.ndarray]:
@@ -340,7 +356,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     if controller not in CONTROLLERS:
         raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
     settings = CONTROLLERS[controller](settings or SwitchingSettings())
-    fixed_delay = parse_latency(latency)
+    latency_spec = parse_latency(latency)
+    fixed_delay = latency_spec.seconds
     for path in (out, video.parent if video else None, record.parent if record else None, plots):
         if path is not None:
             try:
@@ -392,6 +409,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
                 dt = max(ts, round(info.dt / ts) * ts)
             computed = info.solve_time if info is not None else 0.0
             delay = 0.0 if u_prev is None else round((computed if fixed_delay is None else fixed_delay) / ts) * ts
+            if info is not None and info.mode not in latency_spec.modes:
+                delay = 0.0
             segments = [(u_prev, delay), (u, dt - delay)] if delay > 0 else [(u, dt)]
             pieces = [(u_seg, piece) for u_seg, duration in segments for piece in _pieces(duration, ts, chunk)]
             for u_seg, duration in pieces:
