@@ -32,7 +32,8 @@ def test_scenarios_are_listed_one_line_each(capsys) -> None:
                                   ["run", "avoid-wall", "--out", "/proc/forbidden/out"],
                                   ["run", "avoid-wall", "--latency", "fast"],
                                   ["campaign", "--latency", "-0.1", "--out", "/tmp/uvms-never-written"],
-                                  ["run", "avoid-wall", "--latency", "0.1@IV"]])
+                                  ["run", "avoid-wall", "--latency", "0.1@IV"],
+                                  ["run", "avoid-wall", "--latency", "0.1@"]])
 def test_bad_input_is_one_line_naming_what_is_allowed(argv, capsys) -> None:
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()

@@ -110,7 +110,9 @@ def parse_latency(spec: str) -> Latency:
     """The computation delay from its spec: "none" (0 s), "measured", or a number of seconds >= 0,
     optionally followed by "@" and the comma-separated modes whose steps it delays (default: all)."""
     allowed = f"allowed: none, {MEASURED}, or a number of seconds >= 0, optionally @MODES such as @II,III"
-    delay, _, modes = spec.partition("@")
+    delay, at, modes = spec.partition("@")
+    if at and not modes:
+        raise ValueError(f"latency {spec!r}: no mode after @; {allowed}")
     if delay == "none":
         value: float | None = 0.0
     elif delay == MEASURED:
@@ -408,9 +410,8 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
                 paced_from = time.perf_counter() if paced_from is None else paced_from
                 dt = max(ts, round(info.dt / ts) * ts)
             computed = info.solve_time if info is not None else 0.0
-            delay = 0.0 if u_prev is None else round((computed if fixed_delay is None else fixed_delay) / ts) * ts
-            if info is not None and info.mode not in latency_spec.modes:
-                delay = 0.0
+            undelayed = u_prev is None or (info is not None and info.mode not in latency_spec.modes)
+            delay = 0.0 if undelayed else round((computed if fixed_delay is None else fixed_delay) / ts) * ts
             segments = [(u_prev, delay), (u, dt - delay)] if delay > 0 else [(u, dt)]
             pieces = [(u_seg, piece) for u_seg, duration in segments for piece in _pieces(duration, ts, chunk)]
             for u_seg, duration in pieces:
