@@ -1,7 +1,6 @@
 """Closed-loop real-time factor (simulated seconds per wall-clock second) of wall-headon in MuJoCo,
-with and without a Rerun recording, side by side in one run (issue 5's benchmark), and the
-controller's whole-step times per mode; also with the certificate's screens alone
-("switching-screens": no IPOPT in Mode I's step).
+with and without a Rerun recording, side by side in one run, and the controller's whole-step
+times per mode; also with Mode I's real-time iteration ("switching-rti").
 Run: `python bench/closed_loop_rtf.py`; writes bench/results/closed_loop_rtf.json and .md.
 """
 
@@ -27,12 +26,11 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for name, record, controller in (("without recording", None, "switching"),
                                          ("with recording", Path(tmp) / "run.rrd", "switching"),
-                                         ("switching-screens, without recording", None, "switching-screens")):
+                                         ("switching-rti, without recording", None, "switching-rti")):
             s = run(sc, record=record, seed=SEED, controller=controller)
-            rows[name] = {"simulated_s": s["simulated_s"], "wall_clock_s": s["wall_clock_s"],
-                          "real_time_factor": s["simulated_s"] / s["wall_clock_s"], "modes": s["modes"],
-                          "steps": len(s["steps"]),
-                          "step_ms": {m: [1e3 * t["median_s"], 1e3 * t["p95_s"]] for m, t in s["solve_time"].items()}}
+            rows[name] = {"simulated_s": s.simulated_s, "wall_clock_s": s.wall_clock_s,
+                          "real_time_factor": s.simulated_s / s.wall_clock_s, "modes": s.modes, "steps": len(s.steps),
+                          "step_ms": {m: [1e3 * t.median_s, 1e3 * t.p95_s] for m, t in s.solve_time.items()}}
     OUT.mkdir(exist_ok=True)
     (OUT / "closed_loop_rtf.json").write_text(json.dumps({"machine": platform.machine(), "rows": rows}, indent=2))
     lines = [f"# Closed-loop real-time factor, wall-headon in MuJoCo ({platform.machine()}, 2 cores)", "",

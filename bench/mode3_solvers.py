@@ -4,7 +4,7 @@ Mode III is the slowest mode (bench/results/nmpc_modes.md): about 30 interior-po
 about 4 ms each. This benchmark replays the Mode III problems that MuJoCo closed loops actually
 posed, so that a change of solver or options is measured offline, side by side, on the same set.
 
-  python bench/mode3_solvers.py --record 2   # the problems of `--controller` (Mode III over 1 s by default)
+  python bench/mode3_solvers.py --record 2   # the problems of `--controller` (a preset; default: switching)
                                              # on wall-headon, wall-oblique and arm-deployed, seeds 0-1 (1 min)
   python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 15 min)
   python bench/mode3_solvers.py --horizons 5,10   # the default options on the problems cut to each
@@ -59,24 +59,25 @@ OPTIONS: dict[str, dict] = {
 
 
 def _record_run(args: tuple[str, int, str]) -> list[dict]:
-    """The Mode III problems of one closed loop, as solve() received them."""
-    family, seed, controller = args
-    import controller.mode3 as m3
+    """The Mode III problems of one closed loop, as the controller's on_solve hook reports them."""
+    family, seed, preset = args
+    from controller.switching import SolveEvent, SwitchingController
+    from validation import presets
     from validation.closed_loop import run
     from validation.scenarios import SCENARIOS
 
     calls: list[dict] = []
-    solve = m3.ModeIIIOCP.solve
 
-    def recording(self, h0, guess, current=None, duals=None):
+    def recording(e: SolveEvent) -> None:
+        if e.kind != "mode3":
+            return
+        h0, guess, current, duals = (*e.args, *(None,) * (4 - len(e.args)))[:4]
         calls.append({"h0": np.array(h0), "guess": np.array(guess), "current": np.zeros(3) if current is None
                       else np.array(current), "lam_g": None if duals is None else np.array(duals[0]),
-                      "lam_x": None if duals is None else np.array(duals[1]), "lo": self._lo_u.copy(),
-                      "hi": self._hi_u.copy(), "contact": self.contact})
-        return solve(self, h0, guess, current, duals)
+                      "lam_x": None if duals is None else np.array(duals[1]), "lo": e.ocp._lo_u.copy(),
+                      "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact})
 
-    m3.ModeIIIOCP.solve = recording
-    run(SCENARIOS[family], seed=seed, controller=controller)
+    run(SCENARIOS[family], seed=seed, controller=SwitchingController(presets.resolve(preset).settings, recording))
     return calls
 
 
@@ -203,8 +204,8 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--record", type=int, metavar="SEEDS", help="record the problems of seeds 0..SEEDS-1 first")
     ap.add_argument("--workers", type=int, default=2, help="closed loops in parallel while recording")
-    ap.add_argument("--controller", default="switching-mode3-1s",
-                    help="the controller whose problems --record records (validation.closed_loop.CONTROLLERS)")
+    ap.add_argument("--controller", default="switching",
+                    help="the preset whose problems --record records (assets/presets.toml)")
     ap.add_argument("--horizons", help="comma-separated Mode III horizons to compare instead of the option sets")
     a = ap.parse_args(argv)
     if a.record is not None:

@@ -49,7 +49,7 @@ from controller.sqp import QPMode, SQPSettings
 from controller.switching import Mode, SwitchingSettings
 from controller.transcription import clearances
 from uvms import load_params, load_scene
-from validation.closed_loop import paper
+from validation import presets
 from validation.kane_closed_loop import SCENARIOS, run
 
 OUT = Path(__file__).parent / "results"
@@ -212,7 +212,8 @@ def main() -> None:
     h0, ref = approach(params)
     mode1 = ours_and_cold(model, scene.planes, h0, ref)
     mode1["(b) do-mpc 5.1.2, collocation, warm start"] = do_mpc_row(model, scene.planes, h0, ref)
-    modes = modes_two_three() | modes_two_three(paper(SwitchingSettings()), " (the paper's Mode II, 0.1 s)")
+    modes = modes_two_three() | modes_two_three(presets.resolve("switching-paper").settings,
+                                                     " (switching-paper: the paper's rules)")
     builds = build_times()
     OUT.mkdir(exist_ok=True)
     (OUT / "nmpc_modes.json").write_text(json.dumps({"machine": platform.machine(), "casadi": ca.__version__,

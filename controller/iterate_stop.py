@@ -4,8 +4,7 @@ The certificate's minimum-violation problem (controller.feasibility) asks one th
 feasible set, non-empty? Its first iterate whose inputs, re-simulated, are a point of F answers it;
 the rest of IPOPT's run only drives the slacks of inactive constraints to zero with the barrier and
 optimizes the 1e-6 tracking regularization, and on hard problems it could walk away from such a
-point and end at its iteration cap with slacks of metres (recorded MuJoCo problems:
-bench/results/min_violation_stop.md).
+point and end at its iteration cap with slacks of metres.
 """
 
 from __future__ import annotations
@@ -19,12 +18,11 @@ import numpy as np
 class IterateStop(ca.Callback):
     """IPOPT's per-iteration callback: stops the solve (IPOPT's User_Requested_Stop) as soon as
     `accept(x, g)` holds for the iterate's primal vector x and constraint values g; `fired` says
-    whether the last solve was stopped so (the solver then returns that iterate). Setting
-    `cancelled` (from another thread) stops a running solve at its next iteration, unaccepted."""
+    whether the last solve was stopped so (the solver then returns that iterate)."""
 
     def __init__(self, n_x: int, n_g: int, accept: Callable[[np.ndarray, np.ndarray], bool]):
         ca.Callback.__init__(self)
-        self.n_x, self.n_g, self.accept, self.fired, self.cancelled = n_x, n_g, accept, False, False
+        self.n_x, self.n_g, self.accept, self.fired = n_x, n_g, accept, False
         self.construct("iterate_stop", {})
 
     def get_n_in(self) -> int:
@@ -50,8 +48,6 @@ class IterateStop(ca.Callback):
         return ca.Sparsity(0, 0)
 
     def eval(self, arg: list) -> list[int]:
-        if self.cancelled:
-            return [1]
         if not self.fired:
             self.fired = bool(self.accept(np.asarray(arg[0]).ravel(), np.asarray(arg[2]).ravel()))
         return [1 if self.fired else 0]

@@ -55,7 +55,6 @@ from controller.transcription import (
     ipopt_status,
     midpoint_residual,
     smooth_norm,
-    smooth_relu,
     tip_gap,
 )
 from uvms.scene import Plane
@@ -71,20 +70,13 @@ class ModeIISettings:
     eps: float = 0.05  # m, J_II's epsilon
     ee_speed_weight: float = 2.0  # s/m, J_II's w
     ee_speed_smoothing: float = 0.02  # m/s: |V_ee| taken as sqrt(|V_ee|^2 + this^2)
-    # Opt-in, not in the paper: J_II also pays contact_speed_weight times the square of the tip's approach
-    # speed along the normal at contact beyond contact_speed (relu-smoothed at 1 cm/s). With 0.2 m/s
-    # ("switching-soft-contact") thrusters-dead did 8 of 12 against the default's 10 (tip overloads 2 against
-    # 1, one arm contact; bench/results/soft_contact), and arm-deployed seed 18's first impact stayed at 235 N.
-    contact_speed: float | None = None  # m/s (None: no such term)
-    contact_speed_weight: float = 100.0  # s^2/m^2
     input_weight: float = 1e-7  # 1/N^2 regularization
     rate_weight: float = 1e-2  # s^2/rad^2, on the hull's angular and the joints' rates (no thrashing)
     distance_margin: float = 0.005  # m, bodies' clearance (the paper: >= 0)
     terminal_margin: float | None = 0.04  # m, other bodies off the contact plane at contact (None: as above)
     deploy_stiffness: float = 10.0  # N m/rad, the initial guess's arm PD
     deploy_damping: float = 1.5  # N m s/rad
-    max_iter: int = 100  # 300 before: on 116 MuJoCo solves 99 converged (median 18, one at 270) and the
-    # 14 at 300 took 0.23-0.67 s; the 72 hardest runs did 63 successes against 60 with 100 (the note on issue 4)
+    max_iter: int = 100  # IPOPT
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
 
@@ -126,9 +118,6 @@ class ModeIIOCP:
         d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
         v_ee = model.jacobian_ee(h1)[:3, :] @ h1[nv:]
         terminal_cost = 1 / (d0 + s.eps) + s.ee_speed_weight * smooth_norm(v_ee, s.ee_speed_smoothing)
-        if s.contact_speed is not None:  # the tip's approach speed along the normal, beyond contact_speed
-            excess = smooth_relu(-ca.dot(ca.DM(plane.normal), v_ee) - s.contact_speed, 0.01)
-            terminal_cost += s.contact_speed_weight * excess**2
         self._stage = (ca.Function("cost2", [st, P], [cost]), ca.Function("cons2", [st, P], [cons]),
                        ca.Function("tcost2", [xN, P], [terminal_cost]),
                        ca.Function("tcons2", [xN, P], [tip_gap(model, h1, plane)]))

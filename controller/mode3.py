@@ -86,7 +86,6 @@ class ModeIIISettings:
     hull_clearance: float = 0.05  # m: J_III also pays for the hull closer than this to the contact plane
     clearance_weight: float = 1.0  # 1/s, on that shortfall (the approach speed's weights are 1 to 2)
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
-    consistent_joint_rates: bool = False  # Algorithm 2 guesses qdot_m = 0; True: (q_k+1 - q_k) / dt
     max_iter: int = 200
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
@@ -298,7 +297,7 @@ class ModeIIIOCP:
             F = forces[k] if forces is not None else np.array([self.stopping_force(hs[-1]), 0.0, 0.0])
             h, tau = self.locked_step(hs[-1], us[k][:nt], F, s.dt, current)
             q = self.onto_plane(h)
-            h[6 : 6 + n], h[12 + n :] = q, (q - hs[-1][6 : 6 + n]) / s.dt if s.consistent_joint_rates else 0.0
+            h[6 : 6 + n], h[12 + n :] = q, 0.0  # Algorithm 2: joint rates 0
             hs.append(h)
             Fs.append(F)
             Us.append(np.concatenate([us[k][:nt], np.clip(tau, -self._tau_max, self._tau_max)]))

@@ -13,14 +13,8 @@ the linearization, nothing more is dropped). The Hessian is the cost's own (Gaus
 constraints' curvature is left out), so with Mode I's quadratic cost it is constant and always
 positive semidefinite; a fixed point of the iteration is a KKT point of the NLP.
 
-Globalization: full steps by default; the warm start from the shifted previous plan is what keeps
-them in the region of full-step convergence. With `line_search`, a backtracking (Armijo) line
-search on the l1 merit function cost + rho |violation|_1 (Nocedal and Wright, Numerical
-Optimization, 2nd ed., Sec. 18.3: rho at least twice the QP's largest multiplier, so the QP step is
-a descent direction) keeps iterates from wandering where full steps do (the feasibility
-certificate's optional screen, from shifted plans in a drift with dead thrusters:
-controller.feasibility); from cold starts with working thrusters full steps converge as fast or
-faster, since the merit function also cuts good steps (the Maratos effect).
+Globalization: none, full steps; the warm start from the shifted previous plan is what keeps them
+in the region of full-step convergence.
 Converged (SUCCESS): the step's largest entry below `step_tol` and the constraint violation below
 `violation_tol`. At the iteration budget
 `max_iter` the iterate is FEASIBLE when its violation is below FEASIBLE_VIOLATION, else a
@@ -65,9 +59,6 @@ class SQPSettings:
     qp_mode: QPMode = QPMode.ROBUST
     qp_tol: float = 1e-6  # HPIPM's tolerances (ROBUST at 1e-8 and SPEED_ABS at 1e-9 stall at the iteration cap)
     qp_mu0: float | None = 0.1  # HPIPM's initial barrier parameter (None: the mode's own; ROBUST's is 100)
-    line_search: bool = False  # backtracking on the l1 merit function (else full steps)
-    armijo: float = 1e-4  # sufficient-decrease fraction of the merit's directional derivative
-    max_halvings: int = 10  # step halvings before the smallest step is taken anyway
 
 
 @dataclass(frozen=True)
@@ -195,22 +186,6 @@ class StageSQP:
         over, cost = self._violations(w, p, lbg, ubg)
         return float(over.max()), cost
 
-    def _step_length(self, w: np.ndarray, step: np.ndarray, slope: float, rho: float, p: np.ndarray,
-                     lbg: np.ndarray, ubg: np.ndarray, s: SQPSettings) -> float:
-        """The first of 1, 1/2, 1/4, ... that decreases the l1 merit cost + rho |violation|_1
-        sufficiently (Armijo), else 2^-max_halvings. `slope`: the cost's directional derivative
-        along step."""
-        over, cost = self._violations(w, p, lbg, ubg)
-        merit, l1 = cost + rho * over.sum(), over.sum()
-        derivative = slope - rho * l1  # the merit's directional derivative along a step that solves the QP
-        alpha = 1.0
-        for _ in range(s.max_halvings):
-            over_a, cost_a = self._violations(w + alpha * step, p, lbg, ubg)
-            if cost_a + rho * over_a.sum() <= merit + s.armijo * alpha * derivative:
-                break
-            alpha *= 0.5
-        return alpha
-
     def eliminate(self, J: np.ndarray, c: np.ndarray, grad: np.ndarray) -> tuple[np.ndarray, ...]:
         """The QP on (dx_k, du_k) of each stage from its linearization: constraint Jacobians J (N, nc,
         ns) and values c (N, nc), cost gradients grad (N, ns). The columns of s are (x_k | u_k | z_k |
@@ -233,11 +208,10 @@ class StageSQP:
               ubg: np.ndarray, settings: SQPSettings | None = None) -> SQPResult:
         """From w0 with parameters p; lbw/ubw bound w, lbg/ubg bound the stage constraints (N nc,
         stage-major; the dynamics rows must be 0). `settings` replaces the iteration settings
-        (max_iter, real_time, step_tol, violation_tol, line search) for this solve; the QP's are
+        (max_iter, real_time, step_tol, violation_tol) for this solve; the QP's are
         fixed at construction."""
         t0 = time.perf_counter()
         pr, s = self.pr, settings or self.settings
-        rho = 0.0
         N, nx, nv, nd, ns, ng = pr.horizon, pr.nx, pr.nv, self.nd, self.ns, self.ng
         nz, nxu = nx + nv, nx + self.nu
         w = np.array(w0, float)
@@ -269,8 +243,8 @@ class StageSQP:
             g = np.concatenate([gq.ravel(), np.zeros(nx)])
             lbx, ubx = (lbw - w)[self._keep], (ubw - w)[self._keep]
             lbx[:nx] = ubx[:nx] = p[:nx] - w[:nx]
-            x, lam_a, lam_x = self._qp(self._h_vals[self._h_src], self._a_vals[self._a_src], g, lba.ravel(),
-                                       uba.ravel(), lbx, ubx)
+            x, _, _ = self._qp(self._h_vals[self._h_src], self._a_vals[self._a_src], g, lba.ravel(),
+                                uba.ravel(), lbx, ubx)
             st = self.qp.stats(1)  # (see __init__)
             qp_iters += int(st.get("iter_count", 0))
             if not st["success"]:
@@ -281,13 +255,7 @@ class StageSQP:
             step[self._keep] = d
             dxu = d[:N * nxu].reshape(N, nxu)
             step[:N * nz].reshape(N, nz)[:, nxu:] = (W[:, nx:] @ dxu[:, :, None])[:, :, 0] + t[:, nx:]
-            if s.line_search:
-                lam = np.concatenate([lam_a, lam_x])
-                rho = max(rho, 2.0 * float(np.abs(lam).max(initial=0.0)))
-                slope = float(np.sum(grad * self._stages(step).reshape(N, ns)))
-                w = w + self._step_length(w, step, slope, rho, p, lbg, ubg, s) * step
-            else:
-                w = w + step
+            w = w + step
             if np.abs(step).max() < s.step_tol:  # (the full step: a short one does not mean converged)
                 status = SolverStatus.SUCCESS
                 break

@@ -30,6 +30,7 @@ class Job:
     mismatch: str
     seed: int
     latency: str = "none"
+    ctl: tuple[tuple[str, str], ...] = ()  # dotted controller overrides
 
 
 def run_job(job: Job) -> dict:
@@ -37,7 +38,8 @@ def run_job(job: Job) -> dict:
     row = {"scenario": job.scenario.name, "controller": job.controller, "seed": job.seed, "latency": job.latency}
     try:
         from validation.closed_loop import run
-        s = run(job.scenario, controller=job.controller, mismatch=job.mismatch, seed=job.seed, latency=job.latency)
+        s = run(job.scenario, controller=job.controller, ctl=dict(job.ctl), mismatch=job.mismatch, seed=job.seed,
+                latency=job.latency).to_dict()
         row.update({k: s[k] for k in FIELDS if k in s and k not in row})
         row["modes"] = " > ".join(s["modes"])
         row.update({f"step_p95_{m}_ms": 1e3 * s["solve_time"][m]["p95_s"] for m in MODES if m in s["solve_time"]})
@@ -47,7 +49,8 @@ def run_job(job: Job) -> dict:
 
 
 def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers: int, out: Path,
-             mismatch: str = "", seeds: int = 1, first_seed: int = 0, latency: str = "none") -> list[dict]:
+             mismatch: str = "", seeds: int = 1, first_seed: int = 0, latency: str = "none",
+             ctl: dict[str, str] | None = None) -> list[dict]:
     """Run every scenario with every controller and every seed first_seed..first_seed+seeds-1 of the
     mismatch (the same draws for every controller), with the computation delay `latency`
     (validation.closed_loop.parse_latency); write out/results.csv and out/results.md."""
@@ -58,8 +61,9 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise ValueError(f"output path {out}: {e.strerror}; allowed: a writable folder") from None
-    jobs = [Job(s, c, mismatch, seed, latency) for s in scenarios for seed in range(first_seed, first_seed + seeds)
-            for c in controllers]
+    overrides = tuple(sorted((ctl or {}).items()))
+    jobs = [Job(s, c, mismatch, seed, latency, overrides) for s in scenarios
+            for seed in range(first_seed, first_seed + seeds) for c in controllers]
     rows = []
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=ctx) as pool:

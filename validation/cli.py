@@ -1,12 +1,13 @@
 """`uvms`: the testbed's command line.
 
   uvms scenarios                                   list the scenarios, one line each
-  uvms run NAME [--set key=value ...] [--mismatch M] [--seed N] [--controller C] [--out DIR]
-               [--video FILE] [--record FILE] [--plots DIR] [--latency L]
+  uvms controllers                                 list the controller presets, one line each
+  uvms run NAME [--set key=value ...] [--controller C] [--ctl key=value ...] [--mismatch M]
+               [--seed N] [--out DIR] [--video FILE] [--record FILE] [--plots DIR] [--latency L]
                                                    run one in closed loop against MuJoCo
   uvms view FILE.rrd                               open a recording in the Rerun viewer
-  uvms campaign [--scenarios A,B] [--controllers C,D] [--mismatch M] [--seeds N] [--first-seed K]
-               [--workers K] [--out DIR] [--latency L]
+  uvms campaign [--scenarios A,B] [--controllers C,D] [--ctl key=value ...] [--mismatch M]
+               [--seeds N] [--first-seed K] [--workers K] [--out DIR] [--latency L]
                                                    run many, with a progress bar and a results table
 """
 
@@ -17,6 +18,7 @@ import sys
 from pathlib import Path
 
 from validation.scenarios import SCENARIOS, get
+from validation.summary import Summary
 
 
 def _overrides(pairs: list[str]) -> dict[str, str]:
@@ -55,21 +57,21 @@ def _mismatch(text: str) -> str:
     return spec
 
 
-def _print_summary(s: dict) -> None:
-    rows = [("verdict", f"{s['verdict']}: {s['reason']}"), ("modes", " > ".join(s["modes"])),
-            ("min hull distance [m]", f"{s['min_hull_distance']:.3f}"),
-            ("hull contact impulse [N s]", f"{s['hull_contact_impulse']:.3f}"),
-            ("other arm-link contact impulse [N s]", f"{s['link_contact_impulse']:.3f}"),
-            ("peak end-effector force [N]", f"{s['ee_peak_contact_force']:.0f} "
-             f"(max total thrust along the wall normal: {s['max_total_thrust_along_wall_normal']:.0f})"),
-            ("final task error [m]", f"{s['final_task_error']:.3f}"),
-            ("mismatch (seed)", f"{s['mismatch']['spec'] or 'none'} ({s['mismatch']['seed']}): "
-             + ", ".join(f"{k} {v:.3g}" for k, v in s["mismatch"]["values"].items())),
-            ("fallbacks", str(s["fallbacks"])),
-            ("switches to Mode II", s["switches"]),
-            ("step time median / p95 [ms]", ", ".join(f"{m}: {1e3 * v['median_s']:.0f} / {1e3 * v['p95_s']:.0f}"
-                                                      for m, v in s["solve_time"].items())),
-            ("simulated / wall clock [s]", f"{s['simulated_s']:.1f} / {s['wall_clock_s']:.1f}")]
+def _print_summary(s: Summary) -> None:
+    rows = [("verdict", f"{s.verdict}: {s.reason}"), ("controller", s.controller), ("modes", " > ".join(s.modes)),
+            ("min hull distance [m]", f"{s.min_hull_distance:.3f}"),
+            ("hull contact impulse [N s]", f"{s.hull_contact_impulse:.3f}"),
+            ("other arm-link contact impulse [N s]", f"{s.link_contact_impulse:.3f}"),
+            ("peak end-effector force [N]", f"{s.ee_peak_contact_force:.0f} "
+             f"(max total thrust along the wall normal: {s.max_total_thrust_along_wall_normal:.0f})"),
+            ("final task error [m]", f"{s.final_task_error:.3f}"),
+            ("mismatch (seed)", f"{s.mismatch['spec'] or 'none'} ({s.mismatch['seed']}): "
+             + ", ".join(f"{k} {v:.3g}" for k, v in s.mismatch["values"].items())),
+            ("fallbacks", str(s.fallbacks)),
+            ("switches to Mode II", s.switches),
+            ("step time median / p95 [ms]", ", ".join(f"{m}: {1e3 * v.median_s:.0f} / {1e3 * v.p95_s:.0f}"
+                                                      for m, v in s.solve_time.items())),
+            ("simulated / wall clock [s]", f"{s.simulated_s:.1f} / {s.wall_clock_s:.1f}")]
     width = max(len(k) for k, _ in rows)
     for k, v in rows:
         print(f"{k:<{width}}  {v}")
@@ -79,6 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="uvms", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="command", required=True)
     sub.add_parser("scenarios", help="list the scenarios")
+    sub.add_parser("controllers", help="list the controller presets")
     run = sub.add_parser("run", help="run one scenario in closed loop against MuJoCo")
     run.add_argument("scenario", help="a scenario name (uvms scenarios)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
@@ -87,8 +90,8 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--video", type=Path, help="write an MP4 rendered headlessly (EGL)")
     run.add_argument("--record", type=Path, help="write a Rerun recording (.rrd)")
     run.add_argument("--plots", type=Path, help="folder for telemetry figures (PNG)")
-    run.add_argument("--controller", default="switching", help="switching (default), mode1-only, braking, or a "
-                     "variant of ours (validation.closed_loop.CONTROLLERS; an unknown name lists them all)")
+    run.add_argument("--controller", default="switching", help="a preset (uvms controllers; default: switching) "
+                     "or package.module:Class of your own (controller.protocol)")
     for parser in (run,):
         parser.add_argument("--mismatch", default="default",
                             help='plant-vs-controller mismatch: "default", "none" or terms like added_mass*U(0.8,1.2)')
@@ -97,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     view.add_argument("recording", type=Path)
     camp = sub.add_parser("campaign", help="run many scenarios and controllers in worker processes")
     camp.add_argument("--scenarios", default=",".join(SCENARIOS), help="comma-separated names (default: all)")
-    camp.add_argument("--controllers", default="switching,mode1-only,braking", help="comma-separated")
+    camp.add_argument("--controllers", default="switching,mode1-only,braking",
+                      help="comma-separated presets or package.module:Class")
     camp.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     camp.add_argument("--out", type=Path, default=Path("out/campaign"), help="folder for results.csv and .md")
     camp.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every scenario")
@@ -105,6 +109,8 @@ def main(argv: list[str] | None = None) -> int:
     camp.add_argument("--seeds", type=int, default=1, help="mismatch draws per scenario (seeds K..K+N-1)")
     camp.add_argument("--first-seed", type=int, default=0, metavar="K", help="the first seed (default 0)")
     for parser in (run, camp):
+        parser.add_argument("--ctl", action="append", default=[], metavar="KEY=VALUE",
+                            help="override a controller setting, dotted, e.g. mode3.horizon=10")
         parser.add_argument("--latency", default="none",
                             help='computation delay: "none" (the plant waits for the controller; default), '
                                  '"measured" (each step\'s own wall-clock time on this machine) or seconds; '
@@ -116,26 +122,33 @@ def main(argv: list[str] | None = None) -> int:
             for name, sc in SCENARIOS.items():
                 print(f"{name:<{width}}  {sc.description}")
             return 0
+        if args.command == "controllers":
+            from validation import presets
+            table = presets.load()
+            width = max(len(n) for n in table)
+            for name, p in table.items():
+                print(f"{name:<{width}}  {p.description}")
+            return 0
         if args.command == "view":
             return _view(args.recording)
         if args.command == "campaign":
+            from validation import presets
             from validation.campaign import campaign
-            from validation.closed_loop import CONTROLLERS
             controllers = [c for c in args.controllers.split(",") if c]
+            ctl = _overrides(args.ctl)
             for c in controllers:
-                if c not in CONTROLLERS:
-                    raise ValueError(f"unknown controller {c!r}; allowed: {', '.join(CONTROLLERS)}")
+                presets.resolve(c, ctl)  # an unknown name or setting fails here, in one line
             overrides = _overrides(args.set)
             scenarios = [get(n).with_overrides(overrides) for n in args.scenarios.split(",") if n]
             rows = campaign(scenarios, controllers, args.workers, args.out, _mismatch(args.mismatch), args.seeds,
-                            args.first_seed, args.latency)
+                            args.first_seed, args.latency, ctl)
             print(Path(args.out / "results.md").read_text())
             return 0 if all(r.get("verdict") != "error" for r in rows) else 1
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
         from validation.closed_loop import run as run_scenario  # heavy imports only when running
-        summary = run_scenario(scenario, out=args.out, video=args.video, record=args.record, plots=args.plots,
-                               controller=args.controller, mismatch=_mismatch(args.mismatch), seed=args.seed,
-                               latency=args.latency)
+        summary = run_scenario(scenario, controller=args.controller, ctl=_overrides(args.ctl),
+                               mismatch=_mismatch(args.mismatch), seed=args.seed, latency=args.latency,
+                               out=args.out, video=args.video, record=args.record, plots=args.plots)
     except ValueError as e:
         print(f"uvms: error: {e}", file=sys.stderr)
         return 2

@@ -1,27 +1,23 @@
-"""The switching NMPC against the MuJoCo plant (issue 5): one scenario, closed loop, scored.
+"""One scenario in closed loop against the MuJoCo plant, scored.
 
-A control period is the step's dt (dt_nom, or Mode II's dt* rounded to the physics timestep) with
-the input held (zero-order) over MuJoCo's physics steps and the state measured from the plant. The
-controller knows the scene's current at each step and is told of thruster failures when they happen;
-nothing else about the plant (its fluid model, contact, joint friction) is shared.
+The loop is short: the controller (any object speaking controller.protocol, built from a preset or
+a `package.module:Class`) steps on the measured state; its input is held (zero-order) over the
+step's dt, rounded to the physics timestep; observers (validation.observers: contacts, telemetry,
+video, Rerun) see every physics piece. The controller is told the scene's current and the faults
+the scenario declares known; nothing else about the plant (its fluid model, contact, joint
+friction, the mismatch) is shared.
 
-Computation delay (`latency`, off by default): by default the plant waits for the controller, so a
-step that takes 2 s to compute costs nothing. With a latency the step's input reaches the thrusters
-that long after its state was sampled; the previous input acts meanwhile, and a step that takes
-longer than its period delays the next sample until it is done (one computation at a time). The
-first step's input acts from t = 0 (the run starts when the controller's first plan is ready).
-"measured" uses each step's own wall-clock time on this machine (so outcomes depend on the machine
-and its load), and the loop then runs no faster than real time (it waits before a step whose
-sample time is still ahead of the wall clock), so that work the controller does in the background
-(`switching-background`) takes as long in simulated time as it does in fact; a number of seconds
-is the same for every step (deterministic). A suffix "@MODES" (e.g. "0.1@II,III") delays only the
-steps computed in those modes, the others acting at once: which mode's delay costs what.
+Latency (`latency`, "none" by default: the plant waits for the controller). With a number of
+seconds L each step's input reaches the thrusters L after its state was sampled, the previous input
+acting meanwhile; "measured" uses each step's own wall-clock time (outcomes then depend on the
+machine and its load; the loop runs no faster than real time). "@MODES" (e.g. "0.1@II,III")
+delays only the steps computed in those modes. A step whose computation takes longer than L is an
+overrun (Summary.overruns).
 
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
-tip, and only the tip, touch. A stowed arm that crashes into the wall before the hull does spares
-the hull but is still a collision ("arm contact"), not a success. So is a tip whose peak normal force
-in the plant exceeds the jaws' rating, the parameter file's `tip_force_limit` ("tip overload"; the
-controller's Mode III bounds its planned force by the same number).
+tip, and only the tip, touch. A stowed arm that hits the wall before the hull spares the hull but is
+still a collision ("arm contact"), and a tip whose peak normal force exceeds the parameter file's
+`tip_force_limit` is a "tip overload".
 """
 
 from __future__ import annotations
@@ -30,29 +26,28 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless rendering
 
-import json
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from enum import Enum
-from functools import partial
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from controller.feasibility import Certificate, Stop
-from controller.model import ModelOptions, UVMSModel
-from controller.rollouts import BrakingPolicy
-from controller.sqp import QPMode
-from controller.superellipsoid import DELTA
-from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings, SwitchReason
+from controller.feasibility import Certificate
+from controller.protocol import Controller, KnownFault, StepInfo, Task, label
+from controller.switching import Mode, SwitchReason
 from uvms import load_params, load_scene
 from uvms.params import UVMSParams
 from uvms.scene import Current, Scene
-from uvms_mj.build import HULL, TIP_GEOM
+from uvms_mj.build import HULL
 from uvms_mj.plant import Plant, PlantSettings, ThrusterFault
 from validation import mismatch as mismatches
+from validation import presets
+from validation.observers import ContactTally, Observer, Telemetry, Video
 from validation.scenarios import Scenario
+from validation.summary import ModeTiming, StepRecord, Summary
 
 
 class Outcome(Enum):
@@ -176,154 +171,6 @@ def build_plant(sc: Scenario, mismatch: str, seed: int) -> tuple[UVMSParams, Sce
     return params, scene, Plant(plant_params, plant_scene, PlantSettings(faults=faults)), drawn
 
 
-SEARCH_ITERATIONS = 20  # the certificate's line-search screen in "switching-search"
-CONTACT_MARGIN = 0.02  # m: Modes II and III's body clearance in "switching-contact-margin" (default 5 mm)
-SOFT_TIP_WEIGHT = 4.0  # s/m: J_II's weight on the tip's speed at contact in "switching-soft-tip" (default 2)
-SCREEN_MARGIN = 0.015  # m: the clearance F's plans keep in "switching-screens" (Mode I's 2 cm less 5 mm)
-CERTIFICATE_MARGIN = 0.04  # m: the clearance F's plans keep in "switching-warm-margin" (default: Mode I's 2 cm)
-LOOSE_QP_TOL = 1e-4  # HPIPM's residual tolerances for Mode I's QPs in "switching-loose-qp" (default 1e-6)
-SOLVE_BUDGET = 0.07  # s: IPOPT's wall-clock limit on Modes II and III in "switching-realtime" (not reproducible)
-
-
-def paper(s: SwitchingSettings) -> SwitchingSettings:
-    """Mode II and its hand-over to Mode III as the paper has them: 0.1 s intervals (dt in [0.05,
-    0.1] s), bodies 5 mm off the plane at contact as before it, and Mode III entered after the N_p =
-    1 step wherever the tip is."""
-    return replace(s, contact_tolerance=None, mode2=replace(s.mode2, dt_nominal=0.1, dt_bounds=(0.05, 0.1),
-                                                            terminal_margin=None))
-
-
-def budgeted(s: SwitchingSettings) -> SwitchingSettings:
-    """Modes II and III's IPOPT stopped after SOLVE_BUDGET of wall-clock time; its iterate is used
-    when it satisfies the constraints, else the mode's fallback (controller.switching)."""
-    budget = {"max_wall_time": SOLVE_BUDGET}
-    return replace(s, mode2=replace(s.mode2, ipopt_options={**s.mode2.ipopt_options, **budget}),
-                   mode3=replace(s.mode3, ipopt_options={**s.mode3.ipopt_options, **budget}))
-
-
-# The controllers by name: how each changes the given SwitchingSettings ("braking" does not use them).
-# "switching-sharp" is the default as it was until 2026-12-01: the support function smoothed at 1e-7 m
-# (SHARP), no deploy deadline, HPIPM's own mu0 (100). The variants after it are the A/B cases of issue
-# 4's note, measured then: they run on SHARP, without the deadline (unless they ask for it) and with
-# mu0 = 100, without `redeploy` and with the paper's J_III, as when they were measured (up to the
-# last digits: the SQP's elimination was rewritten after, and J_III got its clearance parameters);
-# all but "switching-sharp" build on the paper's Mode II hand-over (`paper`) unless they say otherwise
-# (bench/results/switch_variants, handover_*, mode2_cap100 and the others).
-SHARP = ModelOptions(support_smoothing=DELTA)
-
-
-def _robust_mu0(s: SwitchingSettings) -> SwitchingSettings:
-    """Mode I's QPs with HPIPM's own initial barrier parameter (ROBUST's 100), the default until the
-    second session of 2026-12-01."""
-    return replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp, qp_mu0=None)))
-
-
-def _approach_only(s: SwitchingSettings) -> SwitchingSettings:
-    """J_III as the paper has it (the hull's approach speed alone): no clearance term, the default
-    until the third session of 2026-12-01 (same compiled code, so equal only to the solvers' last
-    digits to the runs measured before it)."""
-    return replace(s, mode3=replace(s.mode3, clearance_weight=0.0))
-
-
-def _mode3_1s(s: SwitchingSettings) -> SwitchingSettings:
-    """Mode III over 10 intervals (1 s), the default until the fourth session of 2026-12-01
-    (controller.mode3; bench/results/mode3_horizon)."""
-    return replace(s, mode3=replace(s.mode3, horizon=10))
-
-
-def _before_pitch_bound_and_stop(variant: Callable[[SwitchingSettings], SwitchingSettings]
-                  ) -> Callable[[SwitchingSettings], SwitchingSettings]:
-    """The variant as it was before the fifth session of 2026-12-01 (every variant measured before
-    it): the certificate's minimum-violation IPOPT run to its end, not stopped at its first proof
-    of F (`certificate_stop`), from the braking rollout, also when the deploy deadline switches either
-    way (`deadline_first`), and Mode I's OCPs without their pitch bound (`pitch_limit`)."""
-    return lambda s: variant(replace(s, certificate_stop=Stop.NONE, certificate_plan_start=False, deadline_first=False,
-                                     mode1=replace(s.mode1, pitch_limit=None)))
-
-
-def _before_witness(variant: Callable[[SwitchingSettings], SwitchingSettings]
-                    ) -> Callable[[SwitchingSettings], SwitchingSettings]:
-    """The variant as it was measured in the fifth session of 2026-12-01: the certificate's
-    minimum-violation IPOPT started from the braking rollout and stopped at its first iterate with
-    slacks within the tolerance (Stop.SLACK), not at its first RK4 witness from Mode I's plan, and
-    solved even when the deploy deadline switches either way (`deadline_first`)."""
-    return lambda s: variant(replace(s, certificate_stop=Stop.SLACK, certificate_plan_start=False,
-                                     deadline_first=False))
-
-
-def _as_measured(variant: Callable[[SwitchingSettings], SwitchingSettings], s: SwitchingSettings
-                 ) -> SwitchingSettings:
-    return variant(_approach_only(_robust_mu0(_mode3_1s(replace(s, deploy_deadline=False, redeploy=False)))))
-
-
-_MEASURED_ON_SHARP: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
-    "switching-sharp": lambda s: s,
-    "switching-sharp-deadline": lambda s: replace(s, deploy_deadline=True),  # the deadline alone (no smoothing)
-    "switching-paper": paper,
-    "switching-paper-fine2": lambda s: replace(paper(s), mode2=replace(s.mode2, terminal_margin=None)),
-    "switching-paper-strut-check": lambda s: replace(s, mode2=replace(s.mode2, dt_nominal=0.1,
-                                                                      dt_bounds=(0.05, 0.1))),
-    "switching-search": lambda s: replace(paper(s), certificate_search=SEARCH_ITERATIONS),
-    "switching-searching": lambda s: replace(s, certificate_search=SEARCH_ITERATIONS),  # on today's hand-over
-    "switching-certified-release": lambda s: replace(s, certified_release=True),
-    "switching-certified-release-at-rest": lambda s: replace(s, certified_release=True, separation_speed=0.0),
-    "switching-screens": lambda s: replace(s, minimum_violation=False, certificate_margin=SCREEN_MARGIN,
-                                           certified_release=True),  # the screens decide both ways
-    "switching-background": lambda s: replace(s, background_certificate=True),
-    "switching-realtime": lambda s: budgeted(replace(s, background_certificate=True)),
-    "switching-screens-realtime": lambda s: budgeted(_MEASURED_ON_SHARP["switching-screens"](s)),
-    "switching-speed-abs": lambda s: replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp,
-                                                                              qp_mode=QPMode.SPEED_ABS))),
-    "switching-soft-tip": lambda s: replace(s, mode2=replace(s.mode2, ee_speed_weight=SOFT_TIP_WEIGHT)),
-    "switching-warm": lambda s: replace(paper(s), certificate_warm_start=True),
-    "switching-warm-margin": lambda s: replace(paper(s), certificate_warm_start=True,
-                                               certificate_margin=CERTIFICATE_MARGIN),
-    "switching-deadline": lambda s: replace(paper(s), deploy_deadline=True),
-    "switching-search-deadline": lambda s: replace(paper(s), certificate_search=SEARCH_ITERATIONS,
-                                                   deploy_deadline=True),
-    "switching-contact-margin": lambda s: replace(paper(s), mode2=replace(paper(s).mode2,
-                                                                          distance_margin=CONTACT_MARGIN),
-                                                  mode3=replace(s.mode3, distance_margin=CONTACT_MARGIN)),
-}
-_MEASURED_BEFORE_PITCH_BOUND: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
-    "switching-no-stop": lambda s: s,  # the default before the fifth session of 2026-12-01
-    "switching-mode3-1s": _mode3_1s,  # the default before the fourth session of 2026-12-01
-    "switching-certificate-cap100": lambda s: replace(s, certificate_max_iter=100),  # bench/results/certificate_cap
-    # measured with Mode III over 1 s, so with it:
-    # J_III's clearance term (controller.mode3; bench/results/hull_clearance):
-    "switching-approach-only": lambda s: _approach_only(_mode3_1s(s)),  # the paper's J_III: no clearance term
-    "switching-clearance-10cm": lambda s: _mode3_1s(replace(s, mode3=replace(s.mode3, hull_clearance=0.1))),
-    "switching-clearance-weak": lambda s: _mode3_1s(replace(s, mode3=replace(s.mode3, hull_clearance=0.1,
-                                                                              clearance_weight=0.3))),
-    "switching-soft-contact": lambda s: _mode3_1s(replace(s, mode2=replace(s.mode2, contact_speed=0.2))),
-    "switching-certified-release-now": lambda s: _mode3_1s(replace(s, certified_release=True)),
-    # measured before Mode III's failed entry went back to Mode II (`redeploy`), so without it
-    # (and without J_III's clearance term):
-    "switching-no-redeploy": lambda s: _approach_only(_mode3_1s(replace(s, redeploy=False))),  # results/qp_mu0
-    "switching-no-deadline": partial(_as_measured, lambda s: s),  # F alone
-    "switching-retry": lambda s: _approach_only(_mode3_1s(replace(s, certificate_retry=True, redeploy=False))),
-    "switching-loose-qp": lambda s: _approach_only(_mode3_1s(replace(s, redeploy=False, mode1=replace(
-        s.mode1, sqp=replace(s.mode1.sqp, qp_tol=LOOSE_QP_TOL))))),
-    **{name: partial(_as_measured, f) for name, f in _MEASURED_ON_SHARP.items()},
-}
-CONTROLLERS: dict[str, Callable[[SwitchingSettings], SwitchingSettings]] = {
-    "switching": lambda s: s,
-    "mode1-only": lambda s: replace(s, switching=False),
-    "braking": lambda s: s,
-    # the minimum-violation problem on a second thread, each step waiting up to 50 ms for the job it starts:
-    "switching-background-50ms": lambda s: replace(s, background_certificate=True, certificate_wait=0.05),
-    # Mode I's real-time iteration: one SQP iteration per period instead of two (bench/results/rti):
-    "switching-rti": lambda s: replace(s, mode1=replace(s.mode1, sqp=replace(s.mode1.sqp, max_iter=1))),
-    # the default of the fifth session of 2026-12-01 (bench/results/pitch_stop, pitch_stop_thrusters):
-    "switching-slack-stop": _before_witness(lambda s: s),
-    # F asked to keep CERTIFICATE_MARGIN (4 cm) instead of Mode I's 2 cm (bench/results/certificate_margin):
-    "switching-certificate-margin": _before_witness(lambda s: replace(s, certificate_margin=CERTIFICATE_MARGIN)),
-    **{name: _before_pitch_bound_and_stop(f) for name, f in _MEASURED_BEFORE_PITCH_BOUND.items()},
-}
-# The model each controller plans on, when it is not ModelOptions() (the default).
-MODEL_OPTIONS: dict[str, ModelOptions] = {name: SHARP for name in _MEASURED_ON_SHARP}
-
-
 def certificate_row(c: Certificate | None) -> dict | None:
     """A step's feasibility certificate for summary.json: the verdict, its evidence, the minimum
     violation [m] (null: IPOPT failed, which counts as F empty, or the screens alone decided) and
@@ -331,162 +178,155 @@ def certificate_row(c: Certificate | None) -> dict | None:
     if c is None:
         return None
     return {"verdict": c.verdict.value, "method": c.method.value,
-            "violation": c.violation if np.isfinite(c.violation) else None, "seconds": c.solve_time, "age": c.age}
+            "violation": c.violation if np.isfinite(c.violation) else None, "seconds": c.solve_time}
 
 
-def switches(reasons: Sequence[SwitchReason | None]) -> str:
+def switches(reasons: Sequence[Enum | str | None]) -> str:
     """"n (k by solver failure)" from the steps' switch reasons (None: no switch): the switches from
     Mode I to Mode II, and how many of them came from an IPOPT failure on the certificate's
     minimum-violation problem."""
-    made = [r for r in reasons if r is not None]
-    return f"{len(made)} ({made.count(SwitchReason.SOLVER_FAILURE)} by solver failure)"
+    made = [label(r) for r in reasons if r is not None]
+    return f"{len(made)} ({made.count(SwitchReason.SOLVER_FAILURE.value)} by solver failure)"
 
 
-def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record: Path | None = None,
-        plots: Path | None = None,
-        settings: SwitchingSettings | None = None, controller: str = "switching",
-        mismatch: str = mismatches.DEFAULT, seed: int = 0, latency: str = "none") -> dict:
-    """Run one scenario; returns the summary (also written to out/summary.json when out is given).
-    The plant's parameters differ from the controller's by `mismatch` drawn with `seed`
-    (validation.mismatch; "" for none). `latency`: the computation delay (parse_latency; the
-    module's docstring).
+def task_of(sc: Scenario, params: UVMSParams, scene: Scene) -> Task:
+    """What the controller is told about the scenario (controller.protocol.Task)."""
+    h0, ref = initial_state(params, sc)
+    known = (KnownFault(tuple(sc.failed_thrusters), sc.fail_at),) if sc.failed_thrusters else ()
+    return Task(name=sc.name, params=params, scene=scene, h0=h0, reference=lambda t: ref, known_faults=known,
+                duration=sc.duration)
 
-    `controller`: "switching" (ours), "mode1-only" (the same NMPC without switching: Mode I, with its
-    braking fallback when a solve fails), "braking" (maximum thruster braking with attitude hold,
-    the arm held at its posture: controller.rollouts.BrakingPolicy), or a variant of ours by its
-    name in CONTROLLERS (each a change of SwitchingSettings, documented where the setting is)."""
-    if controller not in CONTROLLERS:
-        raise ValueError(f"unknown controller {controller!r}; allowed: {', '.join(CONTROLLERS)}")
-    settings = CONTROLLERS[controller](settings or SwitchingSettings())
-    latency_spec = parse_latency(latency)
-    fixed_delay = latency_spec.seconds
-    for path in (out, video.parent if video else None, record.parent if record else None, plots):
+
+def _mkdirs(*paths: Path | None) -> None:
+    for path in paths:
         if path is not None:
             try:
                 path.mkdir(parents=True, exist_ok=True)
             except OSError as e:
                 raise ValueError(f"output path {path}: {e.strerror}; allowed: a writable folder") from None
+
+
+def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str, Any] | None = None,
+        mismatch: str = mismatches.DEFAULT, seed: int = 0, latency: str = "none", out: Path | None = None,
+        video: Path | None = None, record: Path | None = None, plots: Path | None = None,
+        observers: Sequence[Callable[[Plant], Observer]] = ()) -> Summary:
+    """Run one scenario and score it; the summary is also written to out/summary.json.
+
+    Args:
+        sc: the scenario.
+        controller: a preset of assets/presets.toml, a `package.module:Class`, or a controller object
+            (controller.protocol; its `reset` is called here).
+        ctl: dotted overrides of the controller's settings (e.g. {"mode3.horizon": 10}).
+        mismatch: the plant-versus-controller mismatch spec (validation.mismatch; "" for none) ...
+        seed: ... and the seed of its draw.
+        latency: the computation delay (parse_latency; the module's docstring).
+        out, video, record, plots: where to write summary.json, an MP4, a Rerun .rrd, the figures.
+        observers: factories of further observers (validation.observers), each called with the plant.
+    """
+    if isinstance(controller, str):
+        resolved = presets.resolve(controller, ctl)
+        ctl_obj = presets.build(resolved)
+    else:
+        if ctl:
+            raise ValueError("ctl overrides with a controller object; allowed: a preset name with ctl, or an object")
+        resolved, ctl_obj = presets.of_object(controller), controller
+    spec = parse_latency(latency)
+    _mkdirs(out, video.parent if video else None, record.parent if record else None, plots)
     params, scene, plant, drawn = build_plant(sc, mismatch, seed)
-    model = UVMSModel(params, scene.water, MODEL_OPTIONS.get(controller, ModelOptions()))
-    h0, ref = initial_state(params, sc)
-    plant.reset(h0)
-    ctl = SwitchingNMPC(model, scene.planes, ref, settings)
-    braking = BrakingPolicy(model)
-    ts = plant.model.opt.timestep
-    recorder = None
+    task = task_of(sc, params, scene)
+    plant.reset(task.h0)
+    ctl_obj.reset(task)
+    tally, telemetry = ContactTally(plant), Telemetry(plant)
+    watching: list[Observer] = [tally, telemetry, *(make(plant) for make in observers)]
     if video is not None:
-        from uvms_mj.render import VideoRecorder
-        recorder = VideoRecorder(plant, video, fps=VIDEO_FPS)
+        watching.append(Video(plant, video, VIDEO_FPS))
     recording = None
     if record is not None:
         from validation.recording import RunRecording
-        recording = RunRecording(record, plant, model, f"{sc.name}-{controller}-{seed}")
-    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
-    hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
-    min_dist = np.full((len(plant.geom_names), len(scene.planes)), np.inf)
-    hull_impulse, link_impulse, hull_peak, ee_peak, steps, failed = 0.0, 0.0, 0.0, 0.0, [], False
-    telemetry: dict[str, list] = {k: [] for k in ("t", "u", "h", "hull_distance", "link_distance", "tip_distance",
-                                                  "tip_force")}
-    tip = plant.geom_names.index(TIP_GEOM) if TIP_GEOM in plant.geom_names else None
-    link_geoms = [i for i in range(len(plant.geom_names)) if i not in hull_geoms and i != tip]
-    next_frame, wall_clock, u_prev, chunk = 0.0, time.perf_counter(), None, settings.mode1.dt
-    paced_from = None  # wall-clock time [s] of simulated t = 0 (measured latency: when the first plan is ready)
+        recording = RunRecording(record, plant, params, scene.water, f"{sc.name}-{resolved.name}-{seed}")
+        recording.describe(scenario=asdict(sc), controller=resolved.name, settings=resolved.settings_dict(),
+                           overrides=resolved.overrides, mismatch={"spec": mismatch, "seed": seed, "values": drawn},
+                           latency=latency)
+        watching.append(recording)
+    ts, chunk = plant.model.opt.timestep, 0.1
+    steps: list[StepRecord] = []
+    wall_clock, u_prev, paced_from = time.perf_counter(), None, None
     try:
         while plant.t < sc.duration - 1e-9:
             t = plant.t
-            if not failed and sc.failed_thrusters and t >= sc.fail_at - 1e-9:
-                ctl.set_failed_thrusters(sc.failed_thrusters)
-                braking.limit_thrust(ctl.lo, ctl.hi)
-                failed = True
-            ctl.current = scene.current.at(t)
-            if controller == "braking":
-                h = plant.state()
-                u, dt = braking(h, h0[6:6 + params.n_joints], ctl.current), settings.mode1.dt
-                info = None
-            else:
-                if fixed_delay is None and paced_from is not None:  # measured: no faster than real time
-                    time.sleep(max(0.0, t - (time.perf_counter() - paced_from)))
-                u, info = ctl.step(plant.state(), t)
-                paced_from = time.perf_counter() if paced_from is None else paced_from
-                dt = max(ts, round(info.dt / ts) * ts)
-            computed = info.solve_time if info is not None else 0.0
-            undelayed = u_prev is None or (info is not None and info.mode not in latency_spec.modes)
-            delay = 0.0 if undelayed else round((computed if fixed_delay is None else fixed_delay) / ts) * ts
+            if spec.seconds is None and paced_from is not None:  # measured: no faster than real time
+                time.sleep(max(0.0, t - (time.perf_counter() - paced_from)))
+            t0 = time.perf_counter()
+            u, info = ctl_obj.step(plant.state(), t)
+            computed = time.perf_counter() - t0
+            paced_from = time.perf_counter() if paced_from is None else paced_from
+            dt = max(ts, round(info.dt / ts) * ts)
+            mode = label(info.mode)
+            undelayed = u_prev is None or (mode in {m.value for m in Mode} and Mode(mode) not in spec.modes)
+            delay = 0.0 if undelayed else round((computed if spec.seconds is None else spec.seconds) / ts) * ts
             segments = [(u_prev, delay), (u, dt - delay)] if delay > 0 else [(u, dt)]
-            pieces = [(u_seg, piece) for u_seg, duration in segments for piece in _pieces(duration, ts, chunk)]
-            for u_seg, duration in pieces:
+            for u_seg, duration in [(us, piece) for us, d in segments for piece in _pieces(d, ts, chunk)]:
                 t_seg = plant.t
                 report = plant.step(u_seg, duration)
-                if recording is not None:
-                    recording.log(plant.t, report, info, u_seg)
-                min_dist = np.minimum(min_dist, report.distances)
-                telemetry["t"].append(t_seg)
-                telemetry["u"].append(report.u_applied)
-                telemetry["h"].append(report.h)
-                telemetry["hull_distance"].append(float(report.distances[hull_geoms, wall].min()))
-                telemetry["link_distance"].append(float(report.distances[link_geoms, wall].min())
-                                                  if link_geoms else np.nan)
-                telemetry["tip_distance"].append(float(report.distances[tip, wall]) if tip is not None else np.nan)
-                telemetry["tip_force"].append(max((c.peak_normal_force for c in report.contacts
-                                                   if c.geom == TIP_GEOM), default=0.0))
-                for c in report.contacts:
-                    if c.body == HULL:
-                        hull_impulse += float(np.linalg.norm(c.impulse))
-                        hull_peak = max(hull_peak, c.peak_normal_force)
-                    elif c.geom == TIP_GEOM:
-                        ee_peak = max(ee_peak, c.peak_normal_force)
-                    else:
-                        link_impulse += float(np.linalg.norm(c.impulse))
-                while recorder is not None and next_frame <= plant.t + 1e-9:
-                    recorder.capture()
-                    next_frame += 1.0 / VIDEO_FPS
-            u_prev, period = u, max(dt, delay)
-            steps.append({"t": t, "dt": period, "delay": delay, "mode": info.mode.value, "status": info.status.value,
-                          "fallback": info.fallback.value, "solve_time": info.solve_time, "ocp_time": info.ocp_time,
-                          "iterations": info.iterations, "horizon": info.horizon,
-                          "certificate": certificate_row(info.certificate),
-                          "switch": info.switch.value if info.switch else None} if info else
-                         {"t": t, "dt": period, "delay": delay, "mode": "braking", "status": "-",
-                          "fallback": Fallback.NONE.value, "solve_time": 0.0, "ocp_time": 0.0, "iterations": 0,
-                          "horizon": 0, "certificate": None, "switch": None})
-    finally:
-        if recorder is not None:
-            recorder.close()
+                for obs in watching:
+                    obs.observe(t_seg, report, info, u_seg)
+            u_prev = u
+            steps.append(_record(t, max(dt, delay), delay, info, computed))
+        summary = _summarize(sc, resolved, mismatch, seed, drawn, latency, spec, params, scene, plant, task, tally,
+                             steps, time.perf_counter() - wall_clock)
         if recording is not None:
-            recording.close()
-    h = plant.state()
-    n = params.n_joints
-    task_error = float(np.linalg.norm(h[:3] - ref[:3]))
-    modes = [s["mode"] for s in steps]
-    timeline = [[s["t"], s["mode"]] for k, s in enumerate(steps) if k == 0 or modes[k - 1] != s["mode"]]
-    per_mode = {}
-    for m in [*(m.value for m in Mode), "braking"]:
-        times = [s["solve_time"] for s in steps if s["mode"] == m]
-        if times:
-            per_mode[m] = {"steps": len(times), "median_s": float(np.median(times)),
-                                 "p95_s": float(np.percentile(times, 95)), "max_s": float(np.max(times))}
-    thrust = max_thrust_along(params, -scene.planes[wall].normal)
-    outcome, reason = judge(hull_impulse, hull_peak, link_impulse, ee_peak, params.arm.tip_force_limit)
-    summary = {
-        "scenario": asdict(sc), "controller": controller,
-        "mismatch": {"spec": mismatch, "seed": seed, "values": drawn}, "latency": latency,
-        "verdict": outcome.value, "reason": reason,
-        "modes": [m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m], "timeline": timeline,
-        "min_distance": {g: {p.name: float(min_dist[i, j]) for j, p in enumerate(scene.planes)}
-                         for i, g in enumerate(plant.geom_names)},
-        "min_hull_distance": float(min_dist[hull_geoms].min()) if hull_geoms else None,
-        "hull_contact_impulse": hull_impulse, "hull_peak_contact_force": hull_peak,
-        "ee_peak_contact_force": ee_peak, "link_contact_impulse": link_impulse,
-        "max_total_thrust_along_wall_normal": thrust,
-        "final_task_error": task_error, "final_joint_angles": h[6:6 + n].tolist(),
-        "solve_time": per_mode, "fallbacks": sum(s["fallback"] != Fallback.NONE.value for s in steps),
-        "switches": switches([SwitchReason(s["switch"]) if s["switch"] else None for s in steps]),
-        "simulated_s": plant.t, "wall_clock_s": time.perf_counter() - wall_clock, "steps": steps,
-    }
+            recording.verdict(summary.verdict, summary.reason)
+    finally:
+        for obs in watching:
+            obs.close()
     if out is not None:
-        (out / "summary.json").write_text(json.dumps(summary, indent=1))
+        summary.write(out / "summary.json")
     if plots is not None:
         from validation import plots as figures
         names = {"thrusters": [th.name for th in params.thrusters], "joints": [lk.name for lk in params.arm.links]}
-        figures.write({k: np.asarray(v) for k, v in telemetry.items()}, modes, names, plots)
+        figures.write(telemetry.arrays(), names, plots)
     return summary
+
+
+def _record(t: float, period: float, delay: float, info: StepInfo, computed: float) -> StepRecord:
+    cert = info.certificate
+    return StepRecord(t=t, dt=period, delay=delay, mode=label(info.mode), status=label(info.status),
+                      fallback=label(info.fallback), compute_time=computed, solve_time=float(info.solve_time),
+                      ocp_time=float(info.ocp_time), iterations=int(info.iterations), horizon=int(info.horizon),
+                      certificate=certificate_row(cert) if isinstance(cert, Certificate) else None,
+                      switch=label(info.switch))
+
+
+def _summarize(sc: Scenario, resolved: presets.Resolved, mismatch: str, seed: int, drawn: dict, latency: str,
+               spec: Latency, params: UVMSParams, scene: Scene, plant: Plant, task: Task, tally: ContactTally,
+               steps: list[StepRecord], wall_clock: float) -> Summary:
+    h, n = plant.state(), params.n_joints
+    ref = task.reference(plant.t)
+    modes = [s.mode for s in steps]
+    per_mode = {}
+    for m in dict.fromkeys(modes):
+        times = [s.compute_time for s in steps if s.mode == m]
+        per_mode[m] = ModeTiming(len(times), float(np.median(times)), float(np.percentile(times, 95)),
+                                 float(np.max(times)))
+    c = tally.totals()
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
+    outcome, reason = judge(c.hull_impulse, c.hull_peak, c.link_impulse, c.tip_peak, params.arm.tip_force_limit)
+    overruns = 0 if spec.seconds in (None, 0.0) else sum(s.compute_time > spec.seconds for s in steps)
+    return Summary(
+        scenario=asdict(sc), controller=resolved.name, controller_settings=resolved.settings_dict(),
+        controller_overrides=dict(resolved.overrides),
+        mismatch={"spec": mismatch, "seed": seed, "values": drawn}, latency=latency,
+        verdict=outcome.value, reason=reason,
+        modes=[m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m],
+        timeline=[[s.t, s.mode] for k, s in enumerate(steps) if k == 0 or modes[k - 1] != s.mode],
+        min_distance={g: {p.name: float(c.min_distance[i, j]) for j, p in enumerate(scene.planes)}
+                      for i, g in enumerate(plant.geom_names)},
+        min_hull_distance=float(c.min_distance[hull_geoms].min()) if hull_geoms else None,
+        hull_contact_impulse=c.hull_impulse, hull_peak_contact_force=c.hull_peak, ee_peak_contact_force=c.tip_peak,
+        link_contact_impulse=c.link_impulse,
+        max_total_thrust_along_wall_normal=max_thrust_along(params, -scene.planes[wall].normal),
+        final_task_error=float(np.linalg.norm(h[:3] - ref[:3])), final_joint_angles=h[6:6 + n].tolist(),
+        solve_time=per_mode, fallbacks=sum(s.fallback != "none" for s in steps),
+        switches=switches([s.switch for s in steps]), overruns=overruns, simulated_s=plant.t,
+        wall_clock_s=wall_clock, steps=steps)

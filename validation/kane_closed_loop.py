@@ -4,7 +4,7 @@ plant validation.model_plant.ModelPlant (the model's RK4 at 2 ms with a penalty 
 
 `python -m validation.kane_closed_loop [--controller NAME] [SCENARIO ...]` runs the scenarios,
 prints a table and writes bench/results/kane_closed_loop.md (for a variant NAME of
-validation.closed_loop.CONTROLLERS other than "switching": kane_closed_loop_NAME.md).
+assets/presets.toml other than "switching": kane_closed_loop_NAME.md).
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ import numpy as np
 from controller.model import ModelOptions, UVMSModel
 from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings
 from uvms import load_params, load_scene
-from validation.closed_loop import CONTROLLERS, MODEL_OPTIONS, initial_state, switches
+from validation import presets
+from validation.closed_loop import initial_state, switches
 from validation.model_plant import ModelPlant
 from validation.scenarios import Scenario
 
@@ -104,8 +105,7 @@ def main(names: list[str], controller: str = "switching") -> None:
             "switches to Mode II | step time median/p95 [ms] per mode |",
             "|---|---|---|---|---|---|---|---|"]
     for name in names or list(SCENARIOS):
-        r = run(SCENARIOS[name], CONTROLLERS[controller](SwitchingSettings()),
-                MODEL_OPTIONS.get(controller, ModelOptions()))
+        r = run(SCENARIOS[name], presets.resolve(controller).settings)
         rows.append(summary_row(r))
         print(rows[-1], flush=True)
     option, suffix = ("", "") if controller == "switching" else (f" --controller {controller}", f"_{controller}")
@@ -118,7 +118,7 @@ def main(names: list[str], controller: str = "switching") -> None:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(prog="python -m validation.kane_closed_loop")
-    variants = [c for c in CONTROLLERS if c != "braking"]  # (the braking baseline runs in MuJoCo only)
+    variants = [n for n, p in presets.load().items() if p.target == "controller.switching:SwitchingController"]
     parser.add_argument("--controller", default="switching", choices=variants)
     parser.add_argument("scenarios", nargs="*", help=f"default: all of {', '.join(SCENARIOS)}")
     args = parser.parse_args()

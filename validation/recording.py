@@ -1,4 +1,4 @@
-"""A Rerun recording of a closed-loop run (issue 5): MuJoCo's geometry moving over sim time, the
+"""A Rerun recording of a closed-loop run: MuJoCo's geometry moving over sim time, the
 controller's superellipsoids overlaid, force arrows, predicted horizons, telemetry and the mode as a
 state timeline, with a blueprint that puts the 3D view beside the plots.
 
@@ -6,10 +6,13 @@ Entities: `world/planes/<name>` (boxes), `world/mujoco/<geom>` (MuJoCo's ellipso
 tip sphere, posed each step), `world/model/<body>` (the controller's superellipsoid meshes posed by
 the model at the measured state), `world/forces/thrusters` and `world/forces/tip` (arrows, N / 50),
 `world/plan/hull` and `world/plan/tip` (predicted horizons, line strips), `telemetry/...` (scalars)
-and `mode` (state changes). Timeline: `sim_time`.
+`mode` (state changes) and `run` (a text document: the scenario, the controller and its resolved
+settings, the mismatch draw and, at the end, the verdict). Timeline: `sim_time`.
 """
 
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import rerun as rr
@@ -17,8 +20,10 @@ import rerun.blueprint as rrb
 from mujoco import mjtGeom
 
 from controller.model import UVMSModel
-from controller.switching import StepInfo
+from controller.protocol import StepInfo, label
 from uvms.conventions import euler_zyx_to_matrix
+from uvms.params import UVMSParams
+from uvms.scene import Water
 from uvms_mj.plant import Plant, PlantReport
 
 FORCE_SCALE = 1.0 / 50.0  # m per N for arrows
@@ -27,8 +32,11 @@ FORCE_SCALE = 1.0 / 50.0  # m per N for arrows
 class RunRecording:
     """Log a run to an .rrd file (no viewer needed)."""
 
-    def __init__(self, path, plant: Plant, model: UVMSModel, name: str):
+    def __init__(self, path, plant: Plant, params: UVMSParams, water: Water, name: str):
+        """`params`: the controller's (nominal) vehicle, whose superellipsoids are overlaid."""
+        model = UVMSModel(params, water)
         self.plant, self.model = plant, model
+        self._header = ""
         self.rec = rr.RecordingStream("uvms_testbed", recording_id=name)
         self.rec.set_log_time_enabled(False)
         self.rec.save(str(path))
@@ -61,10 +69,23 @@ class RunRecording:
                                                           albedo_factor=(120, 230, 120, 70)), static=True)
         self._mode = None
 
+    def describe(self, **facts: object) -> None:
+        """The run's facts (scenario, controller, settings, mismatch...) as the `run` document."""
+        self._header = "\n\n".join(f"## {k}\n\n```json\n{json.dumps(v, indent=1, default=str)}\n```"
+                                    for k, v in facts.items())
+        self.rec.log("run", rr.TextDocument(self._header, media_type=rr.MediaType.MARKDOWN), static=True)
+
+    def verdict(self, verdict: str, reason: str) -> None:
+        """The verdict, on top of the run's facts."""
+        text = f"# Verdict: {verdict}\n\n{reason}\n\n{self._header}"
+        self.rec.log("run", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True)
+        self.rec.flush()
+
     @staticmethod
     def blueprint() -> rrb.Blueprint:
         return rrb.Blueprint(rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name="UVMS"),
+            rrb.Vertical(rrb.Spatial3DView(origin="world", name="UVMS"), rrb.TextDocumentView(origin="run", name="run"),
+                         row_shares=[3, 1]),
             rrb.Vertical(
                 rrb.StateTimelineView(origin="mode", name="mode") if hasattr(rrb, "StateTimelineView")
                 else rrb.TextLogView(origin="mode"),
@@ -74,8 +95,9 @@ class RunRecording:
                 rrb.TimeSeriesView(origin="telemetry/solver", name="solve time [s], dt [s], N_p"),
             ), column_shares=[3, 2]))
 
-    def log(self, t: float, report: PlantReport, info: StepInfo | None, u: np.ndarray) -> None:
-        rec, plant, model = self.rec, self.plant, self.model
+    def observe(self, t_start: float, report: PlantReport, info: StepInfo, u: np.ndarray) -> None:
+        """One physics piece (validation.observers), logged at its end time report.t [s]."""
+        rec, plant, model, t = self.rec, self.plant, self.model, report.t
         rec.set_time("sim_time", duration=t)
         d = plant.data
         for gid, path in self._geoms:
@@ -100,17 +122,18 @@ class RunRecording:
         for k, name in enumerate([th.name for th in p.thrusters] + [lk.name for lk in p.arm.links]):
             rec.log(f"telemetry/input/{name}", rr.Scalars(float(u[k])))
         rec.log("telemetry/contact/tip_force", rr.Scalars(float(np.linalg.norm(report.ee_wrench[:3]))))
-        if info is None:
-            return
-        if info.mode.value != self._mode:
-            self._mode = info.mode.value
-            rec.log("mode", rr.StateChange(state=f"Mode {info.mode.value}"))
+        mode = label(info.mode)
+        if mode != self._mode:
+            self._mode = mode
+            rec.log("mode", rr.StateChange(state=f"Mode {mode}" if mode in ("I", "II", "III") else mode))
         plane = info.contact_plane if info.contact_plane is not None else 0
-        rec.log("telemetry/closing_speed/hull", rr.Scalars(float(info.closing_speeds[plane, 0])))
-        rec.log("telemetry/solver/solve_time", rr.Scalars(info.solve_time))
-        rec.log("telemetry/solver/dt", rr.Scalars(info.dt))
-        rec.log("telemetry/solver/horizon", rr.Scalars(float(info.horizon)))
-        if len(info.h_pred) > 1:
+        if info.closing_speeds is not None:
+            rec.log("telemetry/closing_speed/hull", rr.Scalars(float(info.closing_speeds[plane, 0])))
+        if t_start == info.t:  # once a step
+            rec.log("telemetry/solver/solve_time", rr.Scalars(info.solve_time))
+            rec.log("telemetry/solver/dt", rr.Scalars(info.dt))
+            rec.log("telemetry/solver/horizon", rr.Scalars(float(info.horizon)))
+        if info.h_pred is not None and len(info.h_pred) > 1:
             rec.log("world/plan/hull", rr.LineStrips3D([info.h_pred[:, :3]], colors=[(60, 200, 255)]))
             tips = [np.asarray(model.ee_pose(x)[0]).ravel() for x in info.h_pred]
             rec.log("world/plan/tip", rr.LineStrips3D([tips], colors=[(255, 200, 60)]))
