@@ -33,7 +33,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless
 import json
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from enum import Enum
 from functools import partial
 from pathlib import Path
@@ -49,7 +49,7 @@ from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSetting
 from uvms_mj.build import HULL, TIP_GEOM
 from validation import mismatch as mismatches
 from validation.scenarios import Scenario
-from validation.setup import build_plant, current_profile, initial_state, max_thrust_along, wall_x  # noqa: F401
+from validation.setup import build_plant, current_profile, initial_state, max_thrust_along, reference, wall_x  # noqa: F401
 
 
 class Outcome(Enum):
@@ -319,7 +319,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     model = UVMSModel(params, scene.water, MODEL_OPTIONS.get(controller, ModelOptions()))
     h0, ref = initial_state(params, sc)
     plant.reset(h0)
-    ctl = SwitchingNMPC(model, scene.planes, ref, settings)
+    ctl = SwitchingNMPC(model, scene.planes, reference(params, sc), settings)
     braking = BrakingPolicy(model)
     ts = plant.model.opt.timestep
     recorder = None
@@ -333,7 +333,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
     hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
     min_dist = np.full((len(plant.geom_names), len(scene.planes)), np.inf)
-    hull_impulse, link_impulse, hull_peak, ee_peak, steps, failed = 0.0, 0.0, 0.0, 0.0, [], False
+    hull_impulse, link_impulse, hull_peak, ee_peak, steps, failed = 0.0, 0.0, 0.0, 0.0, [], ()
     telemetry: dict[str, list] = {k: [] for k in ("t", "u", "h", "hull_distance", "link_distance", "tip_distance",
                                                   "tip_force")}
     tip = plant.geom_names.index(TIP_GEOM) if TIP_GEOM in plant.geom_names else None
@@ -343,10 +343,10 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     try:
         while plant.t < sc.duration - 1e-9:
             t = plant.t
-            if not failed and sc.failed_thrusters and t >= sc.fail_at - 1e-9:
-                ctl.set_failed_thrusters(sc.failed_thrusters)
+            if sc.known_dead(t) != failed:  # the controller is told of dead thrusters when they fail
+                failed = sc.known_dead(t)
+                ctl.set_failed_thrusters(failed)
                 braking.limit_thrust(ctl.lo, ctl.hi)
-                failed = True
             ctl.current = scene.current.at(t)
             if controller == "braking":
                 h = plant.state()
@@ -417,7 +417,7 @@ def run(sc: Scenario, out: Path | None = None, video: Path | None = None, record
     thrust = max_thrust_along(params, -scene.planes[wall].normal)
     outcome, reason = judge(hull_impulse, hull_peak, link_impulse, ee_peak, params.arm.tip_force_limit)
     summary = {
-        "scenario": asdict(sc), "controller": controller,
+        "scenario": {"name": sc.name, **sc.to_data()}, "controller": controller,
         "mismatch": {"spec": mismatch, "seed": seed, "values": drawn}, "latency": latency,
         "verdict": outcome.value, "reason": reason,
         "modes": [m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m], "timeline": timeline,
