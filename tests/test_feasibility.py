@@ -176,7 +176,7 @@ def test_default_smoothing_removes_the_false_unavoidables(certificate, scene, pa
 @pytest.mark.slow
 def test_line_search_reaches_F_where_full_steps_do_not(sharp_searching) -> None:
     """On the sharp model (where the screen was measured): a step of the Kane-model closed loop with
-    every thruster dead (validation.kane_closed_loop's thrusters-dead approach, t = 0.7 s; recorded
+    every thruster dead (the Kane-model closed loop's kane-thrusters-dead approach, t = 0.7 s; recorded
     in tests/data): only the arm's reaction can slow
     the hull. From the previous plan shifted, Mode I's SQP with full steps ends 20 iterations with
     its constraints violated by more than 1e-2 (m, N or N m); with the l1-merit line search it

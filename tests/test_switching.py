@@ -15,12 +15,12 @@ from controller.sqp import SQPSettings
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
 from validation.closed_loop import initial_state
 from validation.kane_closed_loop import SCENARIOS, run
-from validation.scenarios import Scenario
+from validation.scenarios import wall_approach
 
 
 def test_bad_state_is_rejected_in_one_line(params, scene) -> None:
     model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, Scenario("rest", "", gap=1.0, speed=0.0))
+    h, ref = initial_state(params, wall_approach(1.0, 0.0))
     ctl = SwitchingNMPC(model, scene.planes, ref)
     bad = h.copy()
     bad[0] = np.nan
@@ -36,7 +36,7 @@ def test_solver_failure_falls_back_to_braking_within_bounds(params, scene) -> No
     the step reports the failure and the fallback and returns maximum braking (the certificate's
     rollout input): finite, within the input bounds, with surge thrust against the motion."""
     model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, Scenario("approach", "", gap=1.0, speed=0.3))
+    h, ref = initial_state(params, wall_approach(1.0, 0.3))
     settings = SwitchingSettings(mode1=ModeISettings(sqp=SQPSettings(max_iter=1, real_time=False)))
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
     u, info = ctl.step(h, 0.0)
@@ -51,7 +51,7 @@ def test_solver_failure_falls_back_to_braking_within_bounds(params, scene) -> No
 def test_avoidable_approach_stays_in_mode_one(params) -> None:
     """0.3 m/s towards the wall 1 m ahead, thrusters working: Mode I throughout, the hull never
     closer than 0.9 m (it brakes within 0.1 m)."""
-    r = run(replace(SCENARIOS["avoidable"], duration=1.5))
+    r = run(replace(SCENARIOS["kane-avoidable"], duration=1.5))
     assert r.modes == [Mode.I]
     assert r.hull_distance.min() > 0.9
 
@@ -67,7 +67,7 @@ def test_thruster_failure_approach_switches_through_all_modes(params) -> None:
     smoothed model (1e-3 m, the default) the certificate finds F non-empty throughout: the switch, at
     1.5 s, is the deploy deadline's; Mode III from 1.8 s, back in Mode I at 2.0 s. On the sharp model
     IPOPT's failure on the minimum-violation problem switched at 1.5 s.)"""
-    r = run(replace(SCENARIOS["thrusters-dead"], duration=2.6))
+    r = run(replace(SCENARIOS["kane-thrusters-dead"], duration=2.6))
     assert r.modes[:4] == [Mode.I, Mode.II, Mode.III, Mode.I]
     modes = [i.mode for i in r.infos]
     first_contact = int(np.argmax(r.tip_force_peak > 0))
@@ -95,7 +95,7 @@ def test_contact_check_holds_mode_three_until_the_tip_is_on_the_plane(params, sc
     from controller.transcription import tip_gap
 
     model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, Scenario("approach", "", gap=0.15, speed=0.2))
+    h, ref = initial_state(params, wall_approach(0.15, 0.2))
     wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
 
     def after_mode_two(settings: SwitchingSettings) -> SwitchingNMPC:
@@ -133,7 +133,7 @@ def test_mode_three_lets_go_only_when_mode_one_certifies_F(params, scene) -> Non
     from controller.rollouts import simulate
 
     model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, Scenario("leaving", "", gap=0.3, speed=-0.1))
+    h, ref = initial_state(params, wall_approach(0.3, -0.1))
     wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
 
     def holding(settings: SwitchingSettings) -> tuple[SwitchingNMPC, np.ndarray]:

@@ -707,5 +707,11 @@ def get(name: str) -> Scenario:
     return SCENARIOS[name]
 
 
+def wall_approach(gap: float, speed: float) -> Scenario:
+    """avoid-wall with the hull front `gap` [m] off the wall, moving at `speed` [m/s] along body x
+    (towards the wall) at the start."""
+    return get("avoid-wall").with_overrides({"initial.gap": repr(gap), "initial.velocity": f"{speed!r},0,0"})
+
+
 __all__ = ["ALLOWED_KEYS", "SCENARIOS", "CurrentSpec", "Fault", "Initial", "PlaneSpec", "Registry", "Scenario",
-           "SceneSpec", "Task", "get", "load_scenario", "parse"]
+           "SceneSpec", "Task", "get", "load_scenario", "parse", "wall_approach"]

@@ -12,7 +12,7 @@ from uvms.params import UVMSParams, _frozen
 from uvms.scene import Current, Plane, Scene
 from uvms_mj.plant import FaultMode, Plant, PlantSettings, ThrusterFault
 from validation import mismatch as mismatches
-from validation.scenarios import SCENE_DIR, Scenario
+from validation.scenarios import POSTURES, SCENE_DIR, Scenario
 
 Reference = np.ndarray | Callable[[float], np.ndarray]
 
@@ -68,6 +68,8 @@ def _start(params: UVMSParams, sc: Scenario, scene: Scene) -> np.ndarray:
     h[3:6] = np.radians([ini.roll, ini.pitch, ini.yaw])
     if ini.joints is not None:
         h[6:6 + n] = ini.joints
+    elif ini.posture not in POSTURES:
+        raise ValueError(f"posture {ini.posture!r}; allowed: {', '.join(POSTURES)}")
     else:
         h[6:6 + n] = params.arm.stowed if ini.posture == "stowed" else params.arm.home
     h[6 + n:9 + n] = ini.velocity
