@@ -288,19 +288,19 @@ class _Reader:
     def table(self, key: str) -> _Reader:
         v = self._get(key) if key in self.data else {}
         if not isinstance(v, dict):
-            raise self.fail(key, f"expected a table, got {type(v).__name__}")
+            raise self.fail(key, f"a {type(v).__name__} is not allowed; allowed: a table")
         return _Reader(v, self.file, self.where(key), self.schema[key])
 
     def tables(self, key: str) -> list[_Reader]:
         v = self._get(key) if key in self.data else []
         if not isinstance(v, list) or not all(isinstance(t, dict) for t in v):
-            raise self.fail(key, "expected an array of tables ([[...]])")
+            raise self.fail(key, "allowed: an array of tables ([[...]])")
         return [_Reader(t, self.file, f"{self.where(key)}[{i}]", self.schema[key][0]) for i, t in enumerate(v)]
 
     def string(self, key: str, allowed: tuple[str, ...] | None = None) -> str:
         v = self._get(key)
         if not isinstance(v, str) or not v:
-            raise self.fail(key, "expected a non-empty string")
+            raise self.fail(key, f"{v!r} is not allowed; allowed: a non-empty string")
         if allowed is not None and v not in allowed:
             raise self.fail(key, f"{v!r} is not allowed; allowed: {', '.join(allowed)}")
         return v
@@ -308,7 +308,7 @@ class _Reader:
     def strings(self, key: str) -> tuple[str, ...]:
         v = self._get(key)
         if not isinstance(v, list) or not all(isinstance(s, str) and s for s in v):
-            raise self.fail(key, "expected a list of non-empty strings")
+            raise self.fail(key, f"{v!r} is not allowed; allowed: a list of non-empty strings")
         return tuple(v)
 
     def ints(self, key: str, lo: int, hi: int) -> tuple[int, ...]:
@@ -331,20 +331,20 @@ class _Reader:
         spec: _Q = self.schema[key]
         q = self._get(key)
         if not isinstance(q, dict) or set(q) != {"value", "unit"}:
-            raise self.fail(key, f'expected {{ value = ..., unit = "{spec.unit}" }}')
+            raise self.fail(key, f'{q!r} is not allowed; allowed: {{ value = ..., unit = "{spec.unit}" }}')
         if q["unit"] != spec.unit:
             raise self.fail(key, f"unit {q['unit']!r} is not allowed; allowed: {spec.unit!r}")
         try:
             arr = np.array(q["value"], dtype=float)
         except (TypeError, ValueError):
-            raise self.fail(key, "value must be a number or a rectangular array of numbers") from None
+            raise self.fail(key, "allowed: a number or a rectangular array of numbers") from None
         shape = tuple(length if s is None else s for s in spec.shape)
         ok = arr.ndim == len(shape) and all(s is None or a == s for a, s in zip(arr.shape, shape, strict=False))
         if not ok or (spec.shape[:1] == (None,) and arr.size == 0):
             want = "x".join("K" if s is None else str(s) for s in shape) or "a number"
             raise self.fail(key, f"shape {arr.shape} is not allowed; allowed: {want} (non-empty)")
         if not np.all(np.isfinite(arr)):
-            raise self.fail(key, "value must be finite")
+            raise self.fail(key, "allowed: finite numbers")
         if min_value is not None and np.any(arr <= min_value if strict_min else arr < min_value):
             raise self.fail(key, f"value {arr.tolist()} out of range; allowed: {'>' if strict_min else '>='} "
                                  f"{min_value} {spec.unit}")
