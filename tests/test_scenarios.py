@@ -269,3 +269,19 @@ def test_the_yawed_wall_example_runs_with_mode_I(tmp_path) -> None:
     assert 0.8 < s["min_distance"]["hull_geom"]["wall"] < 1.0
     assert parse({k: v for k, v in s["scenario"].items() if k != "name"}, "again", Path("again.toml")) == \
         replace(sc, name="again")
+
+
+def test_faults_reach_the_plant_and_the_controller_as_declared() -> None:
+    """A stuck thruster the controller is not told of, beside the file's dead ones it is told of: the
+    plant gets every fault (stuck at its force [N] from its time), the controller's schedule only
+    the known dead ones; an angular rate in deg/s becomes rad/s in h0."""
+    sc = get("wall-headon").with_overrides({"faults.1.thrusters": "5", "faults.1.mode": "stuck",
+                                            "faults.1.force": "-12.5", "faults.1.at": "0.5",
+                                            "initial.angular_velocity": "0,0,90"})
+    assert sc.faults[1].known is False and sc.known_dead(0.0) == sc.known_dead(9.0) == (0, 1, 2, 3)
+    params, _, plant, _ = build_plant(sc, "thruster=6", 0)
+    faults = [(f.thruster, f.start_time, f.mode.value, f.value) for f in plant.settings.faults]
+    assert faults == [(i, 0.0, "zero", 0.0) for i in range(4)] + [(5, 0.5, "stuck", -12.5), (6, 0.0, "zero", 0.0)]
+    h0, _ = initial_state(params, sc)
+    n = params.n_joints
+    np.testing.assert_array_equal(h0[9 + n:12 + n], [0.0, 0.0, np.pi / 2])
