@@ -25,7 +25,7 @@ OUT = Path(__file__).resolve().parent / "results" / "certificate_search.md"
 def main() -> None:
     rows = ["| scenario | screen | modes | min hull distance [m] | Mode I step median / p95 [ms] | "
             "certificate decisions: count, median [ms] |", "|---|---|---|---|---|---|"]
-    for name in ("thrusters-dead", "thrusters-dead-current"):
+    for name in ("kane-thrusters-dead", "kane-thrusters-dead-current"):
         for search in (0, SEARCH):
             r = run(SCENARIOS[name], SwitchingSettings(certificate_search=search))
             steps = [1e3 * i.solve_time for i in r.infos if i.mode is Mode.I]

@@ -22,7 +22,7 @@ dt = 0.1 s, default vehicle (4-joint arm). Variants in one run:
     and the clearances as nonlinear constraints at the intervals' ends; its own warm start (the
     previous solution) with the IPOPT options of ours (warm start, adaptive barrier; with the
     monotone barrier it failed 34 of 60 solves at the 100-iteration cap, 5.0 s median).
-Modes II and III: every step of the thrusters-dead approach of validation.kane_closed_loop (the
+Modes II and III: every step of the kane-thrusters-dead approach of validation.kane_closed_loop (the
 OCP solve alone, and the whole step with certificate, guesses and re-simulation), with the default
 Mode II (0.05 s intervals) and with the paper's (0.1 s, the issue's configuration).
 Code generation: the first build of Mode I with an empty cache (a subprocess with its own
@@ -171,7 +171,7 @@ def do_mpc_row(model, planes, h0, ref) -> dict:
 
 
 def modes_two_three(settings: SwitchingSettings | None = None, label: str = "") -> dict:
-    r = run(SCENARIOS["thrusters-dead"], settings)
+    r = run(SCENARIOS["kane-thrusters-dead"], settings)
     rows = {}
     for mode in Mode:
         infos = [i for i in r.infos if i.mode is mode]
@@ -238,7 +238,7 @@ def main() -> None:
              f"Code generation (Mode I, gcc -O1, cached on disk): first build "
              f"{builds['first_build_s']:.0f} s with an empty cache, second build {builds['second_build_s']:.1f} s.",
              "",
-             "## All modes, thrusters-dead approach (validation.kane_closed_loop)", "", *table(modes)]
+             "## All modes, kane-thrusters-dead approach (validation.kane_closed_loop)", "", *table(modes)]
     (OUT / "nmpc_modes.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

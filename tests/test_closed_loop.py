@@ -25,9 +25,10 @@ def test_scenarios_are_listed_one_line_each(capsys) -> None:
     assert [ln.split()[0] for ln in lines] == list(SCENARIOS)
 
 
-@pytest.mark.parametrize("argv", [["run", "no-such-scenario"], ["run", "avoid-wall", "--set", "speed"],
-                                  ["run", "avoid-wall", "--set", "sped=1"],
-                                  ["run", "avoid-wall", "--set", "speed=fast"],
+@pytest.mark.parametrize("argv", [["run", "no-such-scenario"], ["run", "avoid-wall", "--set", "initial.gap"],
+                                  ["run", "avoid-wall", "--set", "initial.sped=1"],
+                                  ["run", "avoid-wall", "--set", "initial.gap=fast"],
+                                  ["run", "avoid-wall", "--set", "initial.posture=sideways"],
                                   ["run", "avoid-wall", "--out", "/proc/forbidden/out"],
                                   ["run", "avoid-wall", "--latency", "fast"],
                                   ["campaign", "--latency", "-0.1", "--out", "/tmp/uvms-never-written"],
@@ -94,7 +95,7 @@ def test_a_computation_delay_holds_the_previous_input(tmp_path, monkeypatch) -> 
         return step(self, u, duration)
 
     monkeypatch.setattr(Plant, "step", logged)
-    sc = replace(get("wall-headon"), duration=0.5, failed_thrusters=(), current=(0.0, 0.0, 0.0))
+    sc = get("wall-headon").with_overrides({"duration": "0.5", "faults": "none", "current.velocity": "0,0,0"})
     s = run(sc, controller="braking", mismatch=NONE, latency="0.05", out=tmp_path)
     assert s.latency == "0.05" and [st.t for st in s.steps] == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4])
     params = load_params()
@@ -112,8 +113,10 @@ def test_a_computation_delay_holds_the_previous_input(tmp_path, monkeypatch) -> 
 
 
 def test_overrides_parse_numbers_and_tuples() -> None:
-    sc = get("wall-headon").with_overrides({"speed": "0.5", "current": "0.1,0,0", "failed_thrusters": "0,1"})
-    assert sc.speed == 0.5 and sc.current == (0.1, 0.0, 0.0) and sc.failed_thrusters == (0, 1)
+    sc = get("wall-headon").with_overrides({"initial.velocity": "0.5,0,0", "current.velocity": "0.1,0,0",
+                                            "faults.0.thrusters": "0,1"})
+    assert sc.initial.velocity == (0.5, 0.0, 0.0) and sc.current.velocities == ((0.1, 0.0, 0.0),)
+    assert sc.faults[0].thrusters == (0, 1)
 
 
 def test_same_scenario_gives_the_same_summary(tmp_path) -> None:
@@ -198,7 +201,7 @@ def test_a_crashing_run_is_recorded_and_the_others_finish(tmp_path) -> None:
     from validation.campaign import campaign
 
     good = replace(get("avoid-wall"), duration=0.3)
-    bad = replace(good, name="broken", posture="sideways")
+    bad = replace(good, name="broken", initial=replace(good.initial, posture="sideways"))
     rows = campaign([good, bad], ["braking"], workers=2, out=tmp_path)
     by_name = {r["scenario"]: r for r in rows}
     assert by_name["avoid-wall"]["verdict"] == "success"

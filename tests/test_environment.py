@@ -3,8 +3,6 @@ and a reward that is zero while the hull touches."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from uvms_mj.plant import Plant
@@ -37,7 +35,7 @@ def test_reward_is_zero_while_the_hull_touches(params) -> None:
     that the stowed arm, which sits ahead of the hull's front, is away from the wall), no action:
     within 0.3 s the hull touches (MuJoCo reports a hull contact) and that step's reward is 0;
     before it the reward is positive."""
-    sc = replace(get("thrusters-dead"), current=(0.0, 0.0, 0.0), duration=1.0)
+    sc = get("thrusters-dead").with_overrides({"current.velocity": "0,0,0", "duration": "1"})
     env = load(sc, mismatch="")
     n = params.n_joints
     h0 = env.task.h0

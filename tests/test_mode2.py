@@ -15,7 +15,7 @@ from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_hor
 from controller.model import UVMSModel
 from controller.transcription import clearances, tip_gap
 from validation.closed_loop import initial_state
-from validation.scenarios import Scenario
+from validation.scenarios import wall_approach
 
 
 @pytest.mark.parametrize(("N", "dt", "expected"), [(20, 0.05, 10), (10, 0.074, 7), (2, 0.1, 1), (2, 0.03, 1),
@@ -46,7 +46,7 @@ def test_plan_touches_the_wall_at_its_end_and_the_model_agrees(params, scene) ->
     (ModeIISettings.max_iter), so the test raises the cap: it checks the converged plan."""
     model = UVMSModel(params, scene.water)
     current = np.array([0.15, 0.0, 0.0])
-    h0, _ = initial_state(params, Scenario("approach", "", gap=0.35, speed=0.2))
+    h0, _ = initial_state(params, wall_approach(0.35, 0.2))
     settings = ModeIISettings(max_iter=300)
     ocp = ModeIIOCP(model, scene.planes, 0, settings)
     lo, hi = params.input_bounds()

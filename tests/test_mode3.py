@@ -12,7 +12,7 @@ from controller.model import UVMSModel
 from controller.rollouts import ReachPosture
 from controller.transcription import tip_gap
 from validation.closed_loop import initial_state
-from validation.scenarios import Scenario
+from validation.scenarios import wall_approach
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +23,7 @@ def contact_case(params, scene):
     lo, hi = params.input_bounds()
     lo[:8] = hi[:8] = 0.0
     ocp.limit_inputs(lo, hi)
-    h, _ = initial_state(params, Scenario("approach", "", gap=0.35, speed=0.3))
+    h, _ = initial_state(params, wall_approach(0.35, 0.3))
     n = params.n_joints
     h[6:6 + n] = ReachPosture(model, scene.planes[0])(h)
     h[6:6 + n] = ocp.onto_plane(h)
@@ -104,7 +104,7 @@ def test_clearance_term_pushes_a_hull_that_is_too_close_back_out(params, scene) 
     wall, current, n = scene.planes[0], np.array([0.25, 0.0, 0.0]), params.n_joints
     lo, hi = params.input_bounds()
     lo[:params.n_thrusters] = hi[:params.n_thrusters] = 0.0
-    h, _ = initial_state(params, Scenario("hold", "", gap=0.15, speed=0.0))
+    h, _ = initial_state(params, wall_approach(0.15, 0.0))
     ocps = [ModeIIIOCP(model, scene.planes, 0, ModeIIISettings(hull_clearance=0.18, clearance_weight=w))
             for w in (1.0, 0.0)]
     h[6:6 + n] = ReachPosture(model, wall)(h)

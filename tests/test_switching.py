@@ -14,12 +14,12 @@ from controller.sqp import SQPSettings
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
 from validation.closed_loop import initial_state
 from validation.kane_closed_loop import SCENARIOS, run
-from validation.scenarios import Scenario
+from validation.scenarios import wall_approach
 
 
 def test_bad_state_is_rejected_in_one_line(params, scene) -> None:
     model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, Scenario("rest", "", gap=1.0, speed=0.0))
+    h, ref = initial_state(params, wall_approach(1.0, 0.0))
     ctl = SwitchingNMPC(model, scene.planes, ref)
     bad = h.copy()
     bad[0] = np.nan
@@ -35,7 +35,7 @@ def test_solver_failure_falls_back_to_braking_within_bounds(params, scene) -> No
     the step reports the failure and the fallback and returns maximum braking (the certificate's
     rollout input): finite, within the input bounds, with surge thrust against the motion."""
     model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, Scenario("approach", "", gap=1.0, speed=0.3))
+    h, ref = initial_state(params, wall_approach(1.0, 0.3))
     settings = SwitchingSettings(mode1=ModeISettings(sqp=SQPSettings(max_iter=1, real_time=False)))
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
     u, info = ctl.step(h, 0.0)
@@ -50,7 +50,7 @@ def test_solver_failure_falls_back_to_braking_within_bounds(params, scene) -> No
 def test_avoidable_approach_stays_in_mode_one(params) -> None:
     """0.3 m/s towards the wall 1 m ahead, thrusters working: Mode I throughout, the hull never
     closer than 0.9 m (it brakes within 0.1 m)."""
-    r = run(replace(SCENARIOS["avoidable"], duration=1.5))
+    r = run(replace(SCENARIOS["kane-avoidable"], duration=1.5))
     assert r.modes == [Mode.I]
     assert r.hull_distance.min() > 0.9
 
@@ -65,7 +65,7 @@ def test_thruster_failure_approach_switches_through_all_modes(params) -> None:
     `separation_speed` or after a Mode III step that could not use its solve (the rule's two
     conditions); every planned contact force obeys |F_t| <= mu F_n (1e-6 N). The exact mode
     sequence and switch times are not asked: they hang on the solvers' last digits."""
-    r = run(replace(SCENARIOS["thrusters-dead"], duration=2.6))
+    r = run(replace(SCENARIOS["kane-thrusters-dead"], duration=2.6))
     modes = [i.mode for i in r.infos]
     assert modes[0] is Mode.I and Mode.II in modes and Mode.III in modes[modes.index(Mode.II):]
     first_contact = int(np.argmax(r.tip_force_peak > 0))
@@ -95,7 +95,7 @@ def test_contact_check_holds_mode_three_until_the_tip_is_on_the_plane(params, sc
     from controller.transcription import tip_gap
 
     model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, Scenario("approach", "", gap=0.15, speed=0.2))
+    h, ref = initial_state(params, wall_approach(0.15, 0.2))
     wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
 
     def after_mode_two(settings: SwitchingSettings) -> SwitchingNMPC:
@@ -152,7 +152,7 @@ def test_every_solve_is_reported_to_the_hook(params, scene) -> None:
 
     model = UVMSModel(params, scene.water)
     events = []
-    h, ref = initial_state(params, Scenario("approach", "", gap=1.0, speed=0.3))
+    h, ref = initial_state(params, wall_approach(1.0, 0.3))
     ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(), on_solve=events.append)
     info = ctl.step(h, 0.0)[1]
     assert [e.kind for e in events] == ["mode1"]

@@ -1,6 +1,6 @@
 """`uvms`: the testbed's command line.
 
-  uvms scenarios                                   list the scenarios, one line each
+  uvms scenarios                                   list the scenarios (name, tags, description)
   uvms controllers                                 list the controller presets, one line each
   uvms run NAME [--set key=value ...] [--controller C] [--ctl key=value ...] [--mismatch M]
                [--seed N] [--out DIR] [--video FILE] [--record FILE] [--plots DIR] [--latency L]
@@ -85,7 +85,8 @@ def main(argv: list[str] | None = None) -> int:
     run = sub.add_parser("run", help="run one scenario in closed loop against MuJoCo")
     run.add_argument("scenario", help="a scenario name (uvms scenarios)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                     help="override a scenario setting, e.g. speed=0.5 or current=0.2,0,0")
+                     help="override a scenario setting by its dotted key, e.g. initial.pitch=15, "
+                          "current.velocity=0.1,0.4,0 or duration=2 (validation.scenarios)")
     run.add_argument("--out", type=Path, default=Path("out"), help="folder for summary.json (default: out)")
     run.add_argument("--video", type=Path, help="write an MP4 rendered headlessly (EGL)")
     run.add_argument("--record", type=Path, help="write a Rerun recording (.rrd)")
@@ -99,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     view = sub.add_parser("view", help="open a recording in the Rerun viewer (needs a display)")
     view.add_argument("recording", type=Path)
     camp = sub.add_parser("campaign", help="run many scenarios and controllers in worker processes")
-    camp.add_argument("--scenarios", default=",".join(SCENARIOS), help="comma-separated names (default: all)")
+    camp.add_argument("--scenarios", default=",".join(n for n in SCENARIOS if "kane" not in SCENARIOS[n].tags),
+                      help="comma-separated names (default: all but those tagged kane)")
     camp.add_argument("--controllers", default="switching,mode1-only,braking",
                       help="comma-separated presets or package.module:Class")
     camp.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
@@ -118,9 +120,10 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     try:
         if args.command == "scenarios":
-            width = max(len(n) for n in SCENARIOS)
-            for name, sc in SCENARIOS.items():
-                print(f"{name:<{width}}  {sc.description}")
+            rows = [(name, ",".join(sc.tags), sc.description) for name, sc in SCENARIOS.items()]
+            width, tag_width = (max(len(r[k]) for r in rows) for k in (0, 1))
+            for name, tags, description in rows:
+                print(f"{name:<{width}}  {tags:<{tag_width}}  {description}")
             return 0
         if args.command == "controllers":
             from validation import presets

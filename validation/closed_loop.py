@@ -28,7 +28,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -38,15 +38,15 @@ import numpy as np
 from controller.feasibility import Certificate
 from controller.protocol import Controller, KnownFault, StepInfo, Task, label
 from controller.switching import Mode, SwitchReason
-from uvms import load_params, load_scene
 from uvms.params import UVMSParams
-from uvms.scene import Current, Scene
+from uvms.scene import Scene
 from uvms_mj.build import HULL
-from uvms_mj.plant import Plant, PlantSettings, ThrusterFault
+from uvms_mj.plant import Plant
 from validation import mismatch as mismatches
 from validation import presets
 from validation.observers import ContactTally, Observer, Telemetry, Video
 from validation.scenarios import Scenario
+from validation.setup import build_plant, initial_state, max_thrust_along, reference, wall_x  # noqa: F401
 from validation.summary import ModeTiming, StepRecord, Summary
 
 
@@ -76,9 +76,6 @@ def judge(hull_impulse: float, hull_peak: float, link_impulse: float, tip_peak: 
     return Outcome.SUCCESS, "nothing touched an obstacle"
 
 
-def wall_x() -> float:
-    """x [m] of the default scene's wall (read from the scene file: numbers live there once)."""
-    return float(next(p for p in load_scene().planes if p.name == "wall").point[0])
 VIDEO_FPS = 25
 MEASURED = "measured"
 
@@ -126,51 +123,6 @@ def parse_latency(spec: str) -> Latency:
     return Latency(value, chosen)
 
 
-def initial_state(params, sc: Scenario) -> tuple[np.ndarray, np.ndarray]:
-    """The start state and the task's reference state."""
-    n = params.n_joints
-    if sc.posture not in ("stowed", "home"):
-        raise ValueError(f"posture {sc.posture!r}; allowed: stowed, home")
-    front, wall = params.hull.superellipsoid.semi_axes[0], wall_x()
-    h = np.zeros(params.n_states)
-    h[0], h[2] = wall - front - sc.gap, sc.depth
-    h[6:6 + n] = params.arm.stowed if sc.posture == "stowed" else params.arm.home
-    a = np.radians(sc.angle)
-    h[6 + n:9 + n] = [sc.speed * np.cos(a), sc.speed * np.sin(a), -sc.sink]
-    ref = h.copy()
-    ref[0], ref[6 + n:] = wall - front - sc.target_gap, 0.0
-    return h, ref
-
-
-def current_profile(sc: Scenario) -> Current:
-    c, g = np.asarray(sc.current, float), np.asarray(sc.gust, float)
-    if not np.any(g):
-        return Current.constant(c)
-    return Current(times=np.array([0.0, 1.0, 2.0]), velocities=np.array([c, c, c + g]))
-
-
-def max_thrust_along(params, direction: np.ndarray) -> float:
-    """The largest total thruster force [N] along a world direction at zero attitude."""
-    lo, hi = params.input_bounds()
-    proj = params.allocation_matrix()[:3].T @ direction
-    nt = params.n_thrusters
-    return float(np.sum(np.where(proj > 0, hi[:nt] * proj, lo[:nt] * proj)))
-
-
-def build_plant(sc: Scenario, mismatch: str, seed: int) -> tuple[UVMSParams, Scene, Plant, dict[str, float]]:
-    """The controller's parameters and scene (the files, the scenario's known current) and the
-    plant drawn from the mismatch (with its unknown current and dead thrusters), plus the draw."""
-    params, scene = load_params(arm=sc.arm), load_scene()
-    scene = scene.with_current(current_profile(sc))
-    drawn = mismatches.draw(mismatch, seed)
-    plant_params, plant_scene, extra_current, unknown_dead = mismatches.apply(params, scene, drawn)
-    profile = scene.current
-    plant_scene = plant_scene.with_current(Current(times=profile.times, velocities=profile.velocities + extra_current))
-    faults = tuple(ThrusterFault(i, sc.fail_at) for i in sc.failed_thrusters)
-    faults += tuple(ThrusterFault(i, 0.0) for i in unknown_dead if i not in sc.failed_thrusters)
-    return params, scene, Plant(plant_params, plant_scene, PlantSettings(faults=faults)), drawn
-
-
 def certificate_row(c: Certificate | None) -> dict | None:
     """A step's feasibility certificate for summary.json: the verdict, its evidence, the minimum
     violation [m] (null: IPOPT failed, which counts as F empty, or the screens alone decided) and
@@ -191,10 +143,11 @@ def switches(reasons: Sequence[Enum | str | None]) -> str:
 
 def task_of(sc: Scenario, params: UVMSParams, scene: Scene) -> Task:
     """What the controller is told about the scenario (controller.protocol.Task)."""
-    h0, ref = initial_state(params, sc)
-    known = (KnownFault(tuple(sc.failed_thrusters), sc.fail_at),) if sc.failed_thrusters else ()
-    return Task(name=sc.name, params=params, scene=scene, h0=h0, reference=lambda t: ref, known_faults=known,
-                duration=sc.duration)
+    h0, _ = initial_state(params, sc)
+    ref = reference(params, sc)
+    known = tuple(KnownFault(f.thrusters, f.at) for f in sc.faults if f.known and f.mode == "dead")
+    return Task(name=sc.name, params=params, scene=scene, h0=h0, reference=ref if callable(ref) else lambda t: ref,
+                known_faults=known, duration=sc.duration)
 
 
 def _mkdirs(*paths: Path | None) -> None:
@@ -244,7 +197,8 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     if record is not None:
         from validation.recording import RunRecording
         recording = RunRecording(record, plant, params, scene.water, f"{sc.name}-{resolved.name}-{seed}")
-        recording.describe(scenario=asdict(sc), controller=resolved.name, settings=resolved.settings_dict(),
+        recording.describe(scenario={"name": sc.name, **sc.to_data()}, controller=resolved.name,
+                           settings=resolved.settings_dict(),
                            overrides=resolved.overrides, mismatch={"spec": mismatch, "seed": seed, "values": drawn},
                            latency=latency)
         watching.append(recording)
@@ -314,7 +268,8 @@ def _summarize(sc: Scenario, resolved: presets.Resolved, mismatch: str, seed: in
     outcome, reason = judge(c.hull_impulse, c.hull_peak, c.link_impulse, c.tip_peak, params.arm.tip_force_limit)
     overruns = 0 if spec.seconds in (None, 0.0) else sum(s.compute_time > spec.seconds for s in steps)
     return Summary(
-        scenario=asdict(sc), controller=resolved.name, controller_settings=resolved.settings_dict(),
+        scenario={"name": sc.name, **sc.to_data()}, controller=resolved.name,
+        controller_settings=resolved.settings_dict(),
         controller_overrides=dict(resolved.overrides),
         mismatch={"spec": mismatch, "seed": seed, "values": drawn}, latency=latency,
         verdict=outcome.value, reason=reason,

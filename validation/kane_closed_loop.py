@@ -18,27 +18,22 @@ import numpy as np
 
 from controller.model import ModelOptions, UVMSModel
 from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings
-from uvms import load_params, load_scene
+from uvms import load_params
 from validation import presets
 from validation.closed_loop import initial_state, switches
 from validation.model_plant import ModelPlant
+from validation.scenarios import SCENARIOS as SCENARIO_FILES
 from validation.scenarios import Scenario
+from validation.setup import scene_of
 
 OUT = Path(__file__).resolve().parent.parent / "bench" / "results"
 
 
-# At depth 0 (the model has no depth dependence; the same approaches 1.5 m deeper are physically
-# identical). They are kept at 0 because the certificate is numerically fragile: 1.5 m deeper, the
-# thrusters-dead approach's minimum-violation solve lands in another local minimum and stays in Mode I.
-SCENARIOS = {s.name: replace(s, depth=0.0) for s in (
-    Scenario("avoidable", "0.3 m/s towards the wall 1 m ahead, thrusters working", duration=3.0),
-    Scenario("thrusters-dead-current", "every thruster dead, 0.3 m/s towards the wall 0.6 m ahead, 0.15 m/s current",
-             gap=0.6, speed=0.3, duration=5.0, failed_thrusters=tuple(range(8)), current=(0.15, 0.0, 0.0)),
-    Scenario("current", "0.6 m/s towards the wall 0.3 m ahead in a 0.3 m/s current, thrusters working",
-             gap=0.3, speed=0.6, duration=3.0, current=(0.3, 0.0, 0.0)),
-    Scenario("thrusters-dead", "every thruster dead, 0.7 m/s towards the wall 0.38 m ahead",
-             gap=0.38, speed=0.7, duration=3.0, failed_thrusters=tuple(range(8))),
-)}
+# The scenario files tagged "kane" (assets/scenarios/kane-*.toml). They are at depth 0 (the model has
+# no depth dependence; the same approaches 1.5 m deeper are physically identical) because the
+# certificate is numerically fragile: 1.5 m deeper, the thrusters-dead approach's minimum-violation
+# solve lands in another local minimum and stays in Mode I.
+SCENARIOS = SCENARIO_FILES.tagged("kane")
 
 
 @dataclass(frozen=True)
@@ -59,22 +54,31 @@ class Run:
 
 
 def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: ModelOptions | None = None) -> Run:
-    """The scenario in closed loop on the model (planning on `options`'s model, simulated on it too)."""
-    params, scene = load_params(), load_scene()
+    """The scenario in closed loop on the model (planning on `options`'s model, simulated on it too):
+    its scene's planes, its constant current, its dead thrusters (known to the controller at their
+    time, or not)."""
+    if len(scenario.current.times) != 1 or any(f.mode != "dead" for f in scenario.faults):
+        raise ValueError(f"scenario {scenario.name!r}: allowed on the Kane model: a constant current and dead "
+                         "thrusters")
+    params, scene = load_params(arm=scenario.arm), scene_of(scenario)
     model = UVMSModel(params, scene.water, options or ModelOptions())
     base = settings or SwitchingSettings()
-    settings = replace(base, current=scenario.current)
+    current = scenario.current.velocities[0]
+    settings = replace(base, current=current)
     h, ref = initial_state(params, scenario)
     walls = [i for i, pl in enumerate(scene.planes) if pl.name == "wall"]
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
-    plant = ModelPlant(model, scene.planes, h, current=np.asarray(scenario.current))
+    plant = ModelPlant(model, scene.planes, h, current=np.asarray(current))
     infos, times, dist, peak, force, vel = [], [], [], [], [], []
     t = 0.0
-    failed = False
+    told = None
     while t < scenario.duration - 1e-9:
-        if not failed and t >= scenario.fail_at - 1e-9:
-            ctl.set_failed_thrusters(scenario.failed_thrusters)
-            plant.failed, failed = list(scenario.failed_thrusters), True
+        if scenario.known_dead(t) != told:  # (also at t = 0: the controller's bounds set once at the start)
+            told = scenario.known_dead(t)
+            ctl.set_failed_thrusters(told)
+        dead = [i for f in scenario.faults if t >= f.at - 1e-9 for i in f.thrusters]
+        if dead != plant.failed:
+            plant.failed = dead
         u, info = ctl.step(plant.h, t)
         report = plant.step(u, info.dt)
         infos.append(info)
