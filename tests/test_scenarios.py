@@ -265,9 +265,9 @@ def test_the_yawed_wall_example_runs_with_mode_I(tmp_path) -> None:
 
     sc = replace(get("wall-yawed-cross-current"), duration=0.5)
     s = run(sc, out=tmp_path, controller="mode1-only", mismatch=NONE)
-    assert s["simulated_s"] == pytest.approx(0.5) and s["verdict"] == "success"
-    assert 0.8 < s["min_distance"]["hull_geom"]["wall"] < 1.0
-    assert parse({k: v for k, v in s["scenario"].items() if k != "name"}, "again", Path("again.toml")) == \
+    assert s.simulated_s == pytest.approx(0.5) and s.verdict == "success"
+    assert 0.8 < s.min_distance["hull_geom"]["wall"] < 1.0
+    assert parse({k: v for k, v in s.scenario.items() if k != "name"}, "again", Path("again.toml")) == \
         replace(sc, name="again")
 
 
