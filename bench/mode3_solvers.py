@@ -59,12 +59,18 @@ OPTIONS: dict[str, dict] = {
 
 
 def _record_run(args: tuple[str, int, str]) -> list[dict]:
-    """The Mode III problems of one closed loop, as the controller's on_solve hook reports them."""
+    """The Mode III problems of one closed loop (family, seed, preset)."""
+    from validation.scenarios import SCENARIOS
+
     family, seed, preset = args
+    return record_problems(SCENARIOS[family], seed, preset)
+
+
+def record_problems(scenario, seed: int, preset: str) -> list[dict]:
+    """The Mode III problems of one closed loop, as the controller's on_solve hook reports them."""
     from controller.switching import SolveEvent, SwitchingController
     from validation import presets
     from validation.closed_loop import run
-    from validation.scenarios import SCENARIOS
 
     calls: list[dict] = []
 
@@ -77,7 +83,7 @@ def _record_run(args: tuple[str, int, str]) -> list[dict]:
                       "lam_x": None if duals is None else np.array(duals[1]), "lo": e.ocp._lo_u.copy(),
                       "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact})
 
-    run(SCENARIOS[family], seed=seed, controller=SwitchingController(presets.resolve(preset).settings, recording))
+    run(scenario, seed=seed, controller=SwitchingController(presets.resolve(preset).settings, recording))
     return calls
 
 

@@ -1,0 +1,47 @@
+"""The benchmarks' problem recorders (the controller's on_solve hook) on short closed loops."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+BENCH = Path(__file__).parent.parent / "bench"
+
+
+def _load(name: str):
+    spec = importlib.util.spec_from_file_location(name, BENCH / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.slow
+def test_min_violation_recorder_records_replayable_problems() -> None:
+    """bench/min_violation_stop.py's recorder on the demo's first 0.3 s (wall-headon, seed 0, where
+    the braking rollout cannot certify F, so the certificate solves its minimum-violation problem):
+    it records at least one problem, each with the run's state, bounds and a primal start of the
+    problem's size, and replaying one gives a verdict. Oracle: the problem's own layout (its
+    variables' bounds have the start's length)."""
+    bench = _load("min_violation_stop")
+    calls = bench._record_run("wall-headon:0", duration=0.3)
+    assert calls and all(c["run"] == "wall-headon:0" for c in calls)
+    c = calls[0]
+    assert c["h0"].shape == c["h_ref"].shape and np.all(c["lo"] <= c["hi"]) and np.all(np.isfinite(c["guess"]))
+
+
+@pytest.mark.slow
+def test_mode3_recorder_records_mode_three_problems() -> None:
+    """bench/mode3_solvers.py's recorder on the demo's first 0.8 s (Mode III comes within 0.5 s):
+    every recorded problem is a Mode III one (its contact plane is the wall, index 0 of the scene),
+    with a primal start and input bounds."""
+    bench = _load("mode3_solvers")
+    from dataclasses import replace
+
+    import validation.scenarios as scenarios
+
+    original = scenarios.SCENARIOS["wall-headon"]
+    calls = bench.record_problems(replace(original, duration=0.8), 0, "switching")
+    assert calls and all(c["contact"] == 0 and np.all(c["lo"] <= c["hi"]) for c in calls)
