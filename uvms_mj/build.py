@@ -5,7 +5,8 @@ What MuJoCo does not do by itself, and how the plant does it:
 - Buoyancy: MuJoCo has none. Every body gets a welded child body `<body>_cob` at its centre of
   buoyancy with a tiny mass `COB_MASS` and `gravcomp = rho V / COB_MASS`: an upward force
   rho V g at the centre of buoyancy. The parent's mass, centre of mass and inertia are reduced
-  so that the composite equals the parameter file exactly.
+  by the child's (its inertia `COB_INERTIA` and its parallel-axis term) so that the composite
+  equals the parameter file exactly.
 - Added mass: MuJoCo's ellipsoid fluid model has no inertial -M_A dv/dt term. The hull's
   rotational added inertia and an isotropic translational part (the mid-range of the three
   translational added masses) go into the free joint's per-DOF armature, set after compile
@@ -34,6 +35,7 @@ from uvms.params import UVMSParams, parallel_axis
 from uvms.scene import Scene
 
 COB_MASS = 1e-3  # kg, mass of each centre-of-buoyancy body (taken from its parent)
+COB_INERTIA = 1e-9  # kg m^2, principal inertia of each centre-of-buoyancy body (taken from its parent)
 HULL = "hull"
 ROOT_JOINT = "root"
 EE_SITE = "ee"
@@ -101,11 +103,13 @@ def quat_z_to(direction: np.ndarray) -> np.ndarray:
 
 def _parent_without_cob(mass: float, com: np.ndarray, inertia: np.ndarray, cob: np.ndarray,
                         ) -> tuple[float, np.ndarray, np.ndarray]:
-    """Mass, CoM and full inertia (about its CoM) that, with a COB_MASS point at `cob`, give the
-    composite (mass, com, inertia about com: a (3,) principal diagonal or a (3, 3) matrix)."""
+    """Mass, CoM and full inertia (about its CoM) that, with the centre-of-buoyancy body (mass
+    COB_MASS at `cob`, isotropic inertia COB_INERTIA about it), give the composite exactly (mass,
+    com, inertia about com: a (3,) principal diagonal or a (3, 3) matrix)."""
     m = mass - COB_MASS
     c = (mass * com - COB_MASS * cob) / m
-    full = _as_matrix(inertia) - COB_MASS * parallel_axis(cob - com) - m * parallel_axis(c - com)
+    full = (_as_matrix(inertia) - COB_INERTIA * np.eye(3) - COB_MASS * parallel_axis(cob - com)
+            - m * parallel_axis(c - com))
     return m, c, full
 
 
@@ -129,7 +133,7 @@ def _set_inertial(body: mujoco.MjsBody, mass: float, com: np.ndarray, inertia: n
     child = body.add_body(name=f"{body.name}_cob")
     child.explicitinertial = True
     child.mass, child.ipos = COB_MASS, cob
-    child.inertia = [1e-9, 1e-9, 1e-9]
+    child.inertia = [COB_INERTIA] * 3
     child.gravcomp = rho * volume / COB_MASS
     # MuJoCo applies its inertia-box fluid model to a body without ellipsoid-model geoms; a 1 mm
     # non-colliding sphere with zero coefficients opts the CoB body into the (here negligible)
