@@ -10,11 +10,12 @@ What MuJoCo does not do by itself, and how the plant does it:
 - Added mass: MuJoCo's ellipsoid fluid model has no inertial -M_A dv/dt term. The hull's
   rotational added inertia and an isotropic translational part (the mid-range of the three
   translational added masses) go into the free joint's per-DOF armature, set after compile
-  (`<body simple="false">` keeps the solver from ignoring it). The anisotropic translational
-  remainder is applied by the plant as a force iterated to the implicit solution within each
-  step (uvms_mj.plant). Each link's cross-flow added mass enters as the hinge armature it adds
-  about its joint at the home posture (approximate: configuration-dependent and coupling terms
-  are not represented), on top of the rotor inertia reflected through the joint's gearbox.
+  (`<body simple="false">` keeps the solver from ignoring it; exact: the rotational DOFs are in
+  the body frame and an isotropic mass is frame-free). The anisotropic translational remainder
+  and each link's cross-flow added-mass tensor (in its own frame, about its centre, as the
+  paper's model has it) are added to MuJoCo's mass matrix at every step by the plant
+  (`added_mass_terms`, uvms_mj.added_mass): they follow the posture and couple with the hull.
+  The hinges' armature is the rotor inertia reflected through each joint's gearbox alone.
 - The velocity-dependent fluid forces (drag, lift, added-mass Coriolis and Munk moments) are
   MuJoCo's own ellipsoid model on each geom: the plant's physics, not the paper's Fossen terms.
   MuJoCo derives the added-mass part from the ellipsoid's potential-flow virtual mass, so the hull
@@ -33,6 +34,7 @@ from numpy.polynomial.legendre import leggauss
 
 from uvms.params import UVMSParams, parallel_axis
 from uvms.scene import Scene
+from uvms_mj.added_mass import AddedMassTerm
 
 COB_MASS = 1e-3  # kg, mass of each centre-of-buoyancy body (taken from its parent)
 COB_INERTIA = 1e-9  # kg m^2, principal inertia of each centre-of-buoyancy body (taken from its parent)
@@ -230,9 +232,8 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
                           ctrllimited=1, ctrlrange=[-lk.torque_limit, lk.torque_limit])
     base = [] if options.fixed_base else [0, 0, 0, 1, 0, 0, 0]
     spec.add_key(name="home", qpos=np.concatenate([base, params.arm.home]))
-    added = _link_armature(spec, params, rho) if options.added_mass and params.arm.n_joints else None
-    for i, lk in enumerate(params.arm.links):
-        spec.joint(f"{lk.name}_joint").armature = lk.rotor_inertia + (added[i] if added else 0.0)
+    for lk in params.arm.links:
+        spec.joint(f"{lk.name}_joint").armature = lk.rotor_inertia
     return spec
 
 
@@ -265,27 +266,17 @@ def _scene_geometry(spec: mujoco.MjSpec, scene: Scene) -> None:
             friction=[p.friction, 0.005, 0.0001], condim=3 if p.friction > 0 else 1)
 
 
-def _link_armature(spec: mujoco.MjSpec, params: UVMSParams, rho: float) -> list[float]:
-    """Added inertia about each hinge from the links it carries, at the home posture [kg m^2]."""
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, 0)
-    mujoco.mj_kinematics(model, data)
-    out = []
-    for j, lj in enumerate(params.arm.links):
-        jid = model.joint(f"{lj.name}_joint").id
-        anchor, axis = data.xanchor[jid], data.xaxis[jid]
-        total = 0.0
-        for lk in params.arm.links[j:]:
-            b = model.body(lk.name).id
-            R = data.xmat[b].reshape(3, 3)
-            centre = data.xpos[b] + R @ np.array([lk.length / 2, 0, 0])
-            v = R.T @ np.cross(axis, centre - anchor)
-            w = R.T @ axis
-            ma = lk.added_mass(rho)
-            total += v @ (ma[:3] * v) + w @ (ma[3:] * w)
-        out.append(float(total))
-    return out
+def added_mass_terms(params: UVMSParams, rho: float, options: BuildOptions = BuildOptions(),
+                     ) -> tuple[AddedMassTerm, ...]:
+    """The added mass the plant adds to MuJoCo's mass matrix (the rest is the hull's armature):
+    the hull's translational remainder about its origin (none with a fixed base) and every link's
+    cross-flow tensor about its centre (`Link.added_mass` in water of density rho [kg/m^3])."""
+    if not options.added_mass:
+        return ()
+    hull = () if options.fixed_base else (
+        AddedMassTerm(HULL, np.zeros(3), np.concatenate([hull_added_mass_remainder(params), np.zeros(3)])),)
+    return hull + tuple(AddedMassTerm(lk.name, np.array([lk.length / 2, 0.0, 0.0]), lk.added_mass(rho))
+                        for lk in params.arm.links)
 
 
 def compile_model(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOptions(),
