@@ -103,10 +103,12 @@ def test_velocity_dependent_added_mass_forces_follow_the_parameter_file(hull_onl
 
 
 def test_link_added_mass_about_the_elbow_at_home(params, open_water) -> None:
-    """Links, approximately: at the home posture the elbow carries the elbow and wrist links in a
+    """Links, a closed form: at the home posture the elbow carries the elbow and wrist links in a
     straight line perpendicular to its axis, so their cross-flow added mass m_t = C_a rho pi r^2 l
     adds I_A = sum m_t (d^2 + l^2 / 12) about the elbow (d: distance of each link's centre from the
-    joint). The elbow's entry of MuJoCo's joint-space inertia grows by exactly that (1e-9)."""
+    joint). The elbow's entry of the plant's joint-space inertia (MuJoCo's mass matrix with the
+    plant's posture-dependent added mass, as the plant's data holds it after a reset) grows by
+    exactly that (1e-9). Other postures and the coupling terms: tests/test_plant_inertia.py."""
     elbow, wrist = params.arm.links[2], params.arm.links[3]
     rho = open_water.water.density
     I_A = 0.0

@@ -5,15 +5,17 @@ What MuJoCo does not do by itself, and how the plant does it:
 - Buoyancy: MuJoCo has none. Every body gets a welded child body `<body>_cob` at its centre of
   buoyancy with a tiny mass `COB_MASS` and `gravcomp = rho V / COB_MASS`: an upward force
   rho V g at the centre of buoyancy. The parent's mass, centre of mass and inertia are reduced
-  so that the composite equals the parameter file exactly.
+  by the child's (its inertia `COB_INERTIA` and its parallel-axis term) so that the composite
+  equals the parameter file exactly.
 - Added mass: MuJoCo's ellipsoid fluid model has no inertial -M_A dv/dt term. The hull's
   rotational added inertia and an isotropic translational part (the mid-range of the three
   translational added masses) go into the free joint's per-DOF armature, set after compile
-  (`<body simple="false">` keeps the solver from ignoring it). The anisotropic translational
-  remainder is applied by the plant as a force iterated to the implicit solution within each
-  step (uvms_mj.plant). Each link's cross-flow added mass enters as the hinge armature it adds
-  about its joint at the home posture (approximate: configuration-dependent and coupling terms
-  are not represented), on top of the rotor inertia reflected through the joint's gearbox.
+  (`<body simple="false">` keeps the solver from ignoring it; exact: the rotational DOFs are in
+  the body frame and an isotropic mass is frame-free). The anisotropic translational remainder
+  and each link's cross-flow added-mass tensor (in its own frame, about its centre, as the
+  paper's model has it) are added to MuJoCo's mass matrix at every step by the plant
+  (`added_mass_terms`, uvms_mj.added_mass): they follow the posture and couple with the hull.
+  The hinges' armature is the rotor inertia reflected through each joint's gearbox alone.
 - The velocity-dependent fluid forces (drag, lift, added-mass Coriolis and Munk moments) are
   MuJoCo's own ellipsoid model on each geom: the plant's physics, not the paper's Fossen terms.
   MuJoCo derives the added-mass part from the ellipsoid's potential-flow virtual mass, so the hull
@@ -32,8 +34,10 @@ from numpy.polynomial.legendre import leggauss
 
 from uvms.params import UVMSParams, parallel_axis
 from uvms.scene import Scene
+from uvms_mj.added_mass import AddedMassTerm
 
 COB_MASS = 1e-3  # kg, mass of each centre-of-buoyancy body (taken from its parent)
+COB_INERTIA = 1e-9  # kg m^2, principal inertia of each centre-of-buoyancy body (taken from its parent)
 HULL = "hull"
 ROOT_JOINT = "root"
 EE_SITE = "ee"
@@ -101,11 +105,13 @@ def quat_z_to(direction: np.ndarray) -> np.ndarray:
 
 def _parent_without_cob(mass: float, com: np.ndarray, inertia: np.ndarray, cob: np.ndarray,
                         ) -> tuple[float, np.ndarray, np.ndarray]:
-    """Mass, CoM and full inertia (about its CoM) that, with a COB_MASS point at `cob`, give the
-    composite (mass, com, inertia about com: a (3,) principal diagonal or a (3, 3) matrix)."""
+    """Mass, CoM and full inertia (about its CoM) that, with the centre-of-buoyancy body (mass
+    COB_MASS at `cob`, isotropic inertia COB_INERTIA about it), give the composite exactly (mass,
+    com, inertia about com: a (3,) principal diagonal or a (3, 3) matrix)."""
     m = mass - COB_MASS
     c = (mass * com - COB_MASS * cob) / m
-    full = _as_matrix(inertia) - COB_MASS * parallel_axis(cob - com) - m * parallel_axis(c - com)
+    full = (_as_matrix(inertia) - COB_INERTIA * np.eye(3) - COB_MASS * parallel_axis(cob - com)
+            - m * parallel_axis(c - com))
     return m, c, full
 
 
@@ -129,7 +135,7 @@ def _set_inertial(body: mujoco.MjsBody, mass: float, com: np.ndarray, inertia: n
     child = body.add_body(name=f"{body.name}_cob")
     child.explicitinertial = True
     child.mass, child.ipos = COB_MASS, cob
-    child.inertia = [1e-9, 1e-9, 1e-9]
+    child.inertia = [COB_INERTIA] * 3
     child.gravcomp = rho * volume / COB_MASS
     # MuJoCo applies its inertia-box fluid model to a body without ellipsoid-model geoms; a 1 mm
     # non-colliding sphere with zero coefficients opts the CoB body into the (here negligible)
@@ -226,9 +232,8 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
                           ctrllimited=1, ctrlrange=[-lk.torque_limit, lk.torque_limit])
     base = [] if options.fixed_base else [0, 0, 0, 1, 0, 0, 0]
     spec.add_key(name="home", qpos=np.concatenate([base, params.arm.home]))
-    added = _link_armature(spec, params, rho) if options.added_mass and params.arm.n_joints else None
-    for i, lk in enumerate(params.arm.links):
-        spec.joint(f"{lk.name}_joint").armature = lk.rotor_inertia + (added[i] if added else 0.0)
+    for lk in params.arm.links:
+        spec.joint(f"{lk.name}_joint").armature = lk.rotor_inertia
     return spec
 
 
@@ -261,27 +266,17 @@ def _scene_geometry(spec: mujoco.MjSpec, scene: Scene) -> None:
             friction=[p.friction, 0.005, 0.0001], condim=3 if p.friction > 0 else 1)
 
 
-def _link_armature(spec: mujoco.MjSpec, params: UVMSParams, rho: float) -> list[float]:
-    """Added inertia about each hinge from the links it carries, at the home posture [kg m^2]."""
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, 0)
-    mujoco.mj_kinematics(model, data)
-    out = []
-    for j, lj in enumerate(params.arm.links):
-        jid = model.joint(f"{lj.name}_joint").id
-        anchor, axis = data.xanchor[jid], data.xaxis[jid]
-        total = 0.0
-        for lk in params.arm.links[j:]:
-            b = model.body(lk.name).id
-            R = data.xmat[b].reshape(3, 3)
-            centre = data.xpos[b] + R @ np.array([lk.length / 2, 0, 0])
-            v = R.T @ np.cross(axis, centre - anchor)
-            w = R.T @ axis
-            ma = lk.added_mass(rho)
-            total += v @ (ma[:3] * v) + w @ (ma[3:] * w)
-        out.append(float(total))
-    return out
+def added_mass_terms(params: UVMSParams, rho: float, options: BuildOptions = BuildOptions(),
+                     ) -> tuple[AddedMassTerm, ...]:
+    """The added mass the plant adds to MuJoCo's mass matrix (the rest is the hull's armature):
+    the hull's translational remainder about its origin (none with a fixed base) and every link's
+    cross-flow tensor about its centre (`Link.added_mass` in water of density rho [kg/m^3])."""
+    if not options.added_mass:
+        return ()
+    hull = () if options.fixed_base else (
+        AddedMassTerm(HULL, np.zeros(3), np.concatenate([hull_added_mass_remainder(params), np.zeros(3)])),)
+    return hull + tuple(AddedMassTerm(lk.name, np.array([lk.length / 2, 0.0, 0.0]), lk.added_mass(rho))
+                        for lk in params.arm.links)
 
 
 def compile_model(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOptions(),

@@ -24,9 +24,10 @@ _HEADER = """<!--
   Do not edit: change the parameter file and regenerate.
   Open with `python -m mujoco.viewer --mjcf={name}`.
   Not expressible in MJCF, so not in this file: the plant sets the free joint's per-DOF armature
-  (hull added mass) after compiling, {armature}, and applies the anisotropic translational
-  remainder {remainder} kg (body frame) as an iterated force. In this file the hull therefore
-  responds as if it had no added mass; the links' added mass is in their joint armature.
+  (hull added mass) after compiling, {armature}, and adds the anisotropic translational
+  remainder {remainder} kg (body frame) and every link's cross-flow added-mass tensor to
+  MuJoCo's mass matrix at every step, following the posture (uvms_mj.added_mass). In this file
+  the vehicle therefore responds as if it had no added mass; the hinges' armature is the rotors'.
 -->
 """
 

@@ -3,6 +3,11 @@
 Input policy: u outside its limits is CLIPPED to the limits (the report's `clipped` mask says which
 entries were); u or h with the wrong length or a non-finite entry raises ValueError. MuJoCo's
 warnings (bad qacc/qpos/qvel, contact or constraint buffer full) raise PlantUnstableError.
+
+Added mass: the hull's armature plus the posture-dependent term A(q) of uvms_mj.added_mass, put
+into MuJoCo's mass matrix at every physics step (exact, no iteration). A step whose mass matrix
+cannot be factorized is counted in the report's `added_mass_failures` and warned about
+(uvms_mj.added_mass.AddedMassSolveWarning).
 """
 
 from __future__ import annotations
@@ -16,14 +21,8 @@ import numpy as np
 from uvms.conventions import mujoco_to_state, state_to_mujoco
 from uvms.params import UVMSParams
 from uvms.scene import Current, Scene
-from uvms_mj.build import (
-    EE_SITE,
-    HULL,
-    TIP_GEOM,
-    BuildOptions,
-    compile_model,
-    hull_added_mass_remainder,
-)
+from uvms_mj.added_mass import AddedMass
+from uvms_mj.build import EE_SITE, HULL, TIP_GEOM, BuildOptions, added_mass_terms, compile_model
 
 _FATAL_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQACC,
@@ -32,10 +31,6 @@ _FATAL_WARNINGS = (
     mujoco.mjtWarning.mjWARN_CONTACTFULL,
     mujoco.mjtWarning.mjWARN_CNSTRFULL,
 )
-_ADDED_MASS_MAX_ITER = 12
-# N: the fixed-point iteration stops when the remainder force changes by less than this (about
-# 1e-6 of a thruster's force; each pass shrinks the error by |M_rem| / (m + armature) < 0.25).
-_ADDED_MASS_TOL = 1e-5
 
 
 class PlantUnstableError(RuntimeError):
@@ -83,6 +78,7 @@ class PlantReport:
     ee_wrench: np.ndarray  # (6,) contact force [N] and torque about the EE point [N m], world, at t
     ee_impulse: np.ndarray  # (3,) N s, EE contact force integrated over the period
     distances: np.ndarray  # (n_geoms, n_planes) m, true signed distance of each geom to each plane
+    added_mass_failures: int = 0  # physics steps of the period whose added-mass solve failed
 
 
 @dataclass(frozen=True)
@@ -105,14 +101,11 @@ class Plant:
         self._hull = m.body(HULL).id
         self._n_thr = params.n_thrusters
         self._u_lo, self._u_hi = params.input_bounds()
-        self._rem = hull_added_mass_remainder(params) if (
-            settings.build.added_mass and not self._fixed) else np.zeros(3)
-        self._use_rem = bool(np.any(self._rem != 0))
+        self.added_mass = AddedMass(m, added_mass_terms(params, scene.water.density, settings.build))
         self._faults = tuple(self._resolve_fault(f) for f in settings.faults)
         self._current: Current = scene.current
         self._ext = np.zeros((m.nbody, 6))
         self._has_ext = False
-        self._f_rem = np.zeros(3)
         self._tip = m.geom(TIP_GEOM).id if params.n_joints else -1
         self._ee_site = m.site(EE_SITE).id if params.n_joints else -1
         plane_ids = [m.geom(f"plane_{p.name}").id for p in scene.planes]
@@ -135,11 +128,10 @@ class Plant:
     def reset(self, h: np.ndarray | None = None) -> None:
         """Reset to the `home` keyframe at rest, or to the paper state h; time to 0."""
         mujoco.mj_resetDataKeyframe(self.model, self.data, 0)
-        self._f_rem[:] = 0.0
         if h is not None:
             self.set_state(h)
         self.model.opt.wind[:] = self._current.at(0.0)
-        mujoco.mj_forward(self.model, self.data)
+        self._forward()
         self._warnings0 = self._warning_counts()
 
     def set_state(self, h: np.ndarray) -> None:
@@ -151,7 +143,7 @@ class Plant:
             self.data.qvel[:] = h[12 + nj:]
         else:
             self.data.qpos[:], self.data.qvel[:] = state_to_mujoco(h, nj)
-        mujoco.mj_forward(self.model, self.data)
+        self._forward()
 
     def state(self) -> np.ndarray:
         """The paper state h = [x y z phi theta psi q_m | v omega qdot_m]."""
@@ -184,6 +176,7 @@ class Plant:
         acc: dict[tuple[int, int], list] = {}
         ee_imp = np.zeros(3)
         dt = self.model.opt.timestep
+        failures0 = self.added_mass.failures
         for _ in range(n):
             self._physics_step(u_cmd)
             for key, f_world, _pos in self._contacts():
@@ -193,38 +186,53 @@ class Plant:
                 if self._vehicle_geoms[key[0]] == self._tip:
                     ee_imp += f_world * dt
         self._raise_on_warnings()
-        return self._report(clipped, acc, ee_imp)
+        return self._report(clipped, acc, ee_imp, self.added_mass.failures - failures0)
 
-    def _physics_step(self, u: np.ndarray) -> None:
+    def acceleration(self, u: np.ndarray) -> np.ndarray:
+        """The paper's nu_dot [m/s^2, rad/s^2] at the current state under u (clipped, faults
+        applied): the plant's forward dynamics, added mass included; time does not advance."""
+        u = self._check_vector(u, self.params.n_inputs, "input u")
+        self._prepare(np.clip(u, self._u_lo, self._u_hi))
+        self._forward()
+        d = self.data
+        if self._fixed:
+            return np.concatenate([np.zeros(6), d.qacc])
+        R = d.xmat[self._hull].reshape(3, 3)
+        v_body, omega = R.T @ d.qvel[0:3], d.qvel[3:6]
+        # qvel[0:3] = R v, so qacc[0:3] = R (omega x v) + R v_dot
+        return np.concatenate([R.T @ d.qacc[0:3] - _cross(omega, v_body), d.qacc[3:]])
+
+    def _prepare(self, u: np.ndarray) -> None:
+        """Controls (faults applied), the current and the external wrenches at the present time."""
         m, d = self.model, self.data
         d.ctrl[:] = u
         for idx, f in self._faults:
             if d.time >= f.start_time:
                 d.ctrl[idx] = 0.0 if f.mode is FaultMode.ZERO else f.value
         m.opt.wind[:] = self._current.at(d.time)
-        self._apply_xfrc(self._f_rem)
+        self._apply_xfrc()
+
+    def _forward(self) -> None:
+        """mj_forward with the added mass in the mass matrix (uvms_mj.added_mass)."""
+        m, d = self.model, self.data
+        if not self.added_mass.active:
+            mujoco.mj_forward(m, d)
+            return
+        mujoco.mj_fwdPosition(m, d)
+        mujoco.mj_sensorPos(m, d)
+        self.added_mass.apply(d)
+        mujoco.mj_forwardSkip(m, d, mujoco.mjtStage.mjSTAGE_POS, 0)
+
+    def _physics_step(self, u: np.ndarray) -> None:
+        m, d = self.model, self.data
+        self._prepare(u)
         mujoco.mj_checkPos(m, d)
         mujoco.mj_checkVel(m, d)
-        mujoco.mj_forward(m, d)
-        if self._use_rem:
-            self._iterate_added_mass()
+        self._forward()
         mujoco.mj_checkAcc(m, d)
-        mujoco.mj_implicit(m, d)
+        mujoco.mj_implicit(m, d)  # implicitfast: solves with data.M, the added mass included
 
-    def _iterate_added_mass(self) -> None:
-        """Fixed point f = -R diag(M_rem) R^T a: the anisotropic added-mass remainder."""
-        m, d = self.model, self.data
-        R = d.xmat[self._hull].reshape(3, 3)
-        for _ in range(_ADDED_MASS_MAX_ITER):
-            a_world = d.qacc[0:3]  # free joint: world acceleration of the hull origin
-            f = -R @ (self._rem * (R.T @ a_world))
-            if np.max(np.abs(f - self._f_rem)) < _ADDED_MASS_TOL:
-                break
-            self._f_rem[:] = f
-            self._apply_xfrc(f)
-            mujoco.mj_forwardSkip(m, d, mujoco.mjtStage.mjSTAGE_VEL, 1)
-
-    def _apply_xfrc(self, f_rem: np.ndarray) -> None:
+    def _apply_xfrc(self) -> None:
         """External wrenches act at body origins; xfrc_applied acts at the CoM: shift torques."""
         d = self.data
         d.xfrc_applied[:] = 0.0
@@ -233,10 +241,6 @@ class Plant:
                 f, tau = self._ext[b, :3], self._ext[b, 3:]
                 d.xfrc_applied[b, :3] += f
                 d.xfrc_applied[b, 3:] += tau + _cross(d.xpos[b] - d.xipos[b], f)
-        if self._use_rem:
-            h = self._hull
-            d.xfrc_applied[h, :3] += f_rem
-            d.xfrc_applied[h, 3:] += _cross(d.xpos[h] - d.xipos[h], f_rem)
 
     # ----------------------------------------------------------------------------- reports
     def _contacts(self):
@@ -281,7 +285,7 @@ class Plant:
         """Thruster forces [N] and joint torques [N m] that MuJoCo is applying now."""
         return self.data.actuator_force.copy()
 
-    def _report(self, clipped: np.ndarray, acc: dict, ee_imp: np.ndarray) -> PlantReport:
+    def _report(self, clipped: np.ndarray, acc: dict, ee_imp: np.ndarray, failures: int) -> PlantReport:
         now = {k: f for k, f, _ in self._contacts()}
         contacts = tuple(
             ContactReport(geom=self.geom_names[k[0]], body=self._body_of(self._vehicle_geoms[k[0]]),
@@ -290,7 +294,7 @@ class Plant:
             for k, (imp, peak) in sorted(acc.items()))
         return PlantReport(t=self.t, h=self.state(), u_applied=self.applied_input(), clipped=clipped,
                            contacts=contacts, ee_wrench=self.ee_wrench(), ee_impulse=ee_imp,
-                           distances=self.signed_distances())
+                           distances=self.signed_distances(), added_mass_failures=failures)
 
     def _body_of(self, geom: int) -> str:
         return self.model.body(self.model.geom_bodyid[geom]).name
