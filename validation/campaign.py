@@ -1,20 +1,26 @@
 """Campaigns: many closed-loop runs in worker processes, with a progress bar, collected into a
-results table (CSV and markdown). A run that raises is recorded as that run's failure (verdict
-"error" and the exception's first line); it never stops the others."""
+results table (CSV and markdown, with 95% Wilson intervals per scenario and controller, and the
+exact McNemar test of each pair of controllers on the same runs) and a manifest. A run that raises
+is recorded as that run's failure (verdict "error" and the exception's first line); it never stops
+the others."""
 
 from __future__ import annotations
 
 import csv
 import multiprocessing
 import statistics
+import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
+from itertools import combinations
 from pathlib import Path
 
 from tqdm import tqdm
 
+from validation import manifest
 from validation.scenarios import Scenario
+from validation.statistics import paired, wilson
 
 FIELDS = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
           "ee_peak_contact_force", "link_contact_impulse", "max_total_thrust_along_wall_normal",
@@ -64,7 +70,7 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
     overrides = tuple(sorted((ctl or {}).items()))
     jobs = [Job(s, c, mismatch, seed, latency, overrides) for s in scenarios
             for seed in range(first_seed, first_seed + seeds) for c in controllers]
-    rows = []
+    rows, started = [], time.perf_counter()
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=ctx) as pool:
         futures = [pool.submit(run_job, j) for j in jobs]
@@ -78,6 +84,18 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
         for r in rows:
             writer.writerow({k: r.get(k, "") for k in FIELDS})
     (out / "results.md").write_text(markdown(rows))
+    settings = {"scenarios": [{"name": sc.name, **sc.to_data()} for sc in scenarios], "controllers": {},
+                "ctl": ctl or {}, "mismatch": mismatch, "seeds": list(range(first_seed, first_seed + seeds)),
+                "latency": latency, "workers": workers}
+    from validation import presets
+    for c in controllers:
+        try:
+            r = presets.resolve(c, ctl)
+            settings["controllers"][c] = {"class": f"{r.cls.__module__}:{r.cls.__qualname__}",
+                                          "overrides": r.overrides, "settings": r.settings_dict()}
+        except ValueError as e:
+            settings["controllers"][c] = {"error": str(e)}
+    manifest.write(out, settings, time.perf_counter() - started)
     return rows
 
 
@@ -97,14 +115,26 @@ def markdown(rows: list[dict]) -> str:
     families = list(dict.fromkeys(r["scenario"] for r in rows))
 
     def rate(sel: list[dict]) -> str:
-        return f"{sum(r.get('verdict') == 'success' for r in sel)}/{len(sel)}"
+        k, n = sum(r.get("verdict") == "success" for r in sel), len(sel)
+        lo, hi = wilson(k, n)
+        return f"{k}/{n} ({100 * lo:.0f}-{100 * hi:.0f}%)"
 
     lines += ["", "Success (only the end-effector tip touched: zero contact impulse on the hull and on every "
-              "other arm link, and the tip's peak force within the jaws' limit) per scenario family:", "",
+              "other arm link, and the tip's peak force within the jaws' limit) per scenario family, with the "
+              "95% Wilson interval of the rate:", "",
               "| scenario | " + " | ".join(controllers) + " |", "|" + "---|" * (len(controllers) + 1)]
     lines += [f"| {f} | " + " | ".join(rate([r for r in rows if r["scenario"] == f and r["controller"] == c])
                                        for c in controllers) + " |" for f in families]
     lines += ["| all | " + " | ".join(rate([r for r in rows if r["controller"] == c]) for c in controllers) + " |"]
+
+    if len(controllers) > 1:
+        lines += ["", "Paired on the same runs (scenario, seed): both succeed / only the first / only the second / "
+                  "neither, and the exact McNemar test:", ""]
+        for a, b in combinations(controllers, 2):
+            pa, pb = ({(r["scenario"], r["seed"]): r.get("verdict") == "success" for r in rows if r["controller"] == c}
+                      for c in (a, b))
+            p = paired(pa, pb)
+            lines.append(f"- {a} vs {b}: {p.both} / {p.only_a} / {p.only_b} / {p.neither}; {p.reading(a, b)}")
 
     def p95(c: str, m: str) -> str:
         ms = [float(r[f"step_p95_{m}_ms"]) for r in rows if r["controller"] == c and r.get(f"step_p95_{m}_ms") not in

@@ -235,6 +235,10 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             obs.close()
     if out is not None:
         summary.write(out / "summary.json")
+        from validation import manifest
+        manifest.write(out, {"scenario": summary.scenario, "controller": summary.controller,
+                             "controller_settings": summary.controller_settings, "mismatch": summary.mismatch,
+                             "latency": latency}, summary.wall_clock_s)
     if plots is not None:
         from validation import plots as figures
         names = {"thrusters": [th.name for th in params.thrusters], "joints": [lk.name for lk in params.arm.links]}

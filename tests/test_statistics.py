@@ -1,0 +1,32 @@
+"""Campaign statistics against scipy's independent implementations."""
+
+from __future__ import annotations
+
+import pytest
+from scipy import stats
+
+from validation.statistics import mcnemar_exact, paired, wilson
+
+
+@pytest.mark.parametrize(("k", "n"), [(0, 5), (3, 8), (26, 27), (27, 27), (64, 72), (1, 1000)])
+def test_wilson_interval_matches_scipy(k: int, n: int) -> None:
+    """Oracle: scipy.stats.binomtest(k, n).proportion_ci(method="wilson"); 1e-12 (the same closed form,
+    evaluated in another order)."""
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+    assert wilson(k, n) == pytest.approx((ci.low, ci.high), abs=1e-12)
+
+
+@pytest.mark.parametrize(("b", "c"), [(0, 0), (3, 8), (6, 2), (0, 7), (10, 10), (1, 30)])
+def test_exact_mcnemar_is_the_two_sided_binomial_test(b: int, c: int) -> None:
+    """Oracle: scipy's exact two-sided binomial test of b successes in b + c trials at p = 1/2 (the
+    exact McNemar test); 1e-12."""
+    expected = 1.0 if b + c == 0 else stats.binomtest(b, b + c, 0.5).pvalue
+    assert mcnemar_exact(b, c) == pytest.approx(expected, abs=1e-12)
+
+
+def test_paired_counts_only_shared_runs() -> None:
+    a = {("x", 0): True, ("x", 1): True, ("x", 2): False, ("y", 0): False, ("z", 9): True}
+    b = {("x", 0): True, ("x", 1): False, ("x", 2): True, ("y", 0): False}
+    p = paired(a, b)
+    assert (p.both, p.only_a, p.only_b, p.neither) == (1, 1, 1, 1)
+    assert "within noise" in p.reading("A", "B")

@@ -1,0 +1,60 @@
+"""An experiment's manifest: what made a result folder (command, commit, resolved settings), where
+(host, CPU, versions), when and how long; written by the tool beside its results."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = ("casadi", "mujoco", "numpy", "dm-control", "rerun-sdk")
+
+
+def _git(*args: str) -> str:
+    try:
+        out = subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True, check=True)
+        return out.stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+
+
+def _cpu() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def host() -> dict[str, Any]:
+    versions = {}
+    for p in PACKAGES:
+        try:
+            versions[p] = metadata.version(p)
+        except metadata.PackageNotFoundError:
+            versions[p] = None
+    return {"name": platform.node(), "cpu": _cpu(), "cores": os.cpu_count(), "machine": platform.machine(),
+            "python": platform.python_version(), "packages": versions}
+
+
+def manifest(settings: dict[str, Any], wall_time_s: float, command: list[str] | None = None) -> dict[str, Any]:
+    """The manifest of a result made with `settings` (resolved, plain data) in `wall_time_s`."""
+    return {"command": " ".join(command if command is not None else ["uvms", *sys.argv[1:]]),
+            "commit": _git("rev-parse", "HEAD"), "dirty": bool(_git("status", "--porcelain", "--untracked-files=no")),
+            "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+            "wall_time_s": wall_time_s, "host": host(), "settings": settings}
+
+
+def write(folder: Path, settings: dict[str, Any], wall_time_s: float, command: list[str] | None = None) -> Path:
+    path = Path(folder) / "manifest.json"
+    path.write_text(json.dumps(manifest(settings, wall_time_s, command), indent=1, default=str))
+    return path
