@@ -1,5 +1,5 @@
-"""Solve times of the switching NMPC per mode, with Mode I side by side against two baselines
-(issue 4's benchmark). Run: `python bench/nmpc_modes.py` (needs the `bench` extra: do-mpc);
+"""Solve times of the switching NMPC per mode, with Mode I side by side against two baselines.
+Run: `python bench/nmpc_modes.py` (needs the `bench` extra: do-mpc);
 writes bench/results/nmpc_modes.json and .md.
 
 Mode I: the avoidable approach of tests/test_mode1.py (0.3 m/s towards the wall, target out of
@@ -24,7 +24,7 @@ dt = 0.1 s, default vehicle (4-joint arm). Variants in one run:
     monotone barrier it failed 34 of 60 solves at the 100-iteration cap, 5.0 s median).
 Modes II and III: every step of the kane-thrusters-dead approach of validation.kane_closed_loop (the
 OCP solve alone, and the whole step with certificate, guesses and re-simulation), with the default
-Mode II (0.05 s intervals) and with the paper's (0.1 s, the issue's configuration).
+Mode II (0.05 s intervals) and with the paper's (0.1 s).
 Code generation: the first build of Mode I with an empty cache (a subprocess with its own
 UVMS_CODEGEN_CACHE) against a second build that finds the compiled code on disk.
 """
@@ -89,7 +89,7 @@ COLD = "(a) CasADi + IPOPT, expanded SX, cold start"
 VARIANTS = {
     OURS: ModeISettings(),
     "ours: SQP + HPIPM, 1 iteration per period (RTI)": ModeISettings(sqp=SQPSettings(max_iter=1)),
-    "ours: SQP + HPIPM, ROBUST's own mu0 = 100 (the default until 2026-12-01)": ModeISettings(sqp=SQPSettings(
+    "ours: SQP + HPIPM, mu0 = 100, HPIPM ROBUST's own": ModeISettings(sqp=SQPSettings(
         qp_mu0=None)),
     "ours: SQP + HPIPM, QP tolerances 1e-4 instead of 1e-6, 2 iterations per period": ModeISettings(sqp=SQPSettings(
         qp_tol=1e-4)),
@@ -229,7 +229,7 @@ def main() -> None:
 
     ours, cold = mode1[OURS], mode1[COLD]
     lines = [f"# Switching NMPC solve times ({platform.machine()}, casadi {ca.__version__}, 2 cores)", "",
-             "`python bench/nmpc_modes.py`. Targets of issue 4: Mode I median <= 10 ms and p95 <= 25 ms; every "
+             "`python bench/nmpc_modes.py`. Targets: Mode I median <= 10 ms and p95 <= 25 ms; every "
              "mode's p95 below the control period (100 ms); Mode I at least 5x faster than (a).", "",
              f"## Mode I, avoidable approach, {STEPS} closed-loop periods", "", *table(mode1), "",
              f"Median speed-up of ours (default) over (a): {cold['median_ms'] / ours['median_ms']:.1f}x.", "",

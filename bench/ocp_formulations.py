@@ -1,4 +1,4 @@
-"""Exploration for the switching NMPC (issue 4): how fast can IPOPT solve a Mode-I-like OCP on the
+"""Exploration for the switching NMPC: how fast can IPOPT solve a Mode-I-like OCP on the
 paper's model without code generation? Not the controller: a baseline to beat.
 
 OCP: N = 20, dt = 0.1 s, one RK4 step per interval on controller.model.UVMSModel (20 states, 12

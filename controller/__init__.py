@@ -1,1 +1,1 @@
-"""The switching NMPC on the paper's model (CasADi; never imports mujoco). Built in later issues."""
+"""The switching NMPC on the paper's model (CasADi; never imports mujoco)."""

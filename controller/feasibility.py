@@ -11,16 +11,14 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    stays above the margin (and the plan's inputs and joint angles within their bounds), that
    rollout is a point of F: feasible, certified.
 2. Otherwise solve the minimum-violation problem (Mode I with an L1 slack on every clearance
-   constraint, cost sum(slack)), started from the fresh Mode I plan when there is one, else from
-   the braking rollout. Its optimum is 0 exactly when F is non-empty, so F is declared empty when
-   the minimum violation exceeds `CertificateSettings.tolerance` [m] (summed over nodes and
-   bodies). IPOPT stops at its first iterate whose inputs, re-simulated by RK4 from the measured
-   state, pass the screens' test (`is_witness`): a point of F by the screens' own standard; the
-   certificate then carries that re-simulated plan. The problem is not convex: a positive local
-   minimum is strong evidence, not a proof, that F is empty. An iterate that IPOPT leaves feasible
-   at its cap counts with its slack sum (an upper bound on the minimum). If IPOPT fails on this
-   always-feasible problem, F is declared empty (the safe side: the strategy prepares for contact)
-   and the certificate says so by an infinite violation. Design evidence: docs/decisions.md.
+   constraint, cost sum(slack)) from the fresh Mode I plan, else from the braking rollout. Its
+   optimum is 0 exactly when F is non-empty, so F is declared empty when the minimum violation
+   exceeds `CertificateSettings.tolerance` [m] (summed over nodes and bodies). IPOPT stops at its
+   first iterate whose inputs, re-simulated by RK4 from the measured state, pass the screens' test
+   (`is_witness`), and the certificate carries that re-simulated plan. The problem is not convex: a
+   positive local minimum is strong evidence, not a proof. An iterate feasible at IPOPT's cap counts
+   with its slack sum (an upper bound); if IPOPT fails on this always-feasible problem, F is
+   declared empty (the safe side) with an infinite violation. Evidence: docs/decisions.md.
 """
 
 from __future__ import annotations

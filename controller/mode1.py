@@ -6,7 +6,7 @@ dynamics constraints (eq. DynConstraints) are written by the implicit midpoint r
 dynamics form: with h_m = (h_k + h_k+1)/2, eta_k+1 = eta_k + dt eta_dot(h_m), nu_k+1 = nu_k + dt a_k
 and M(q_m) a_k = Q(h_m, u_k). The accelerations a_k are decision variables, so the NLP never
 contains M^-1: its derivatives are ~10x cheaper than those of an explicit RK4 step of the same
-model (bench/ocp_formulations.md). The rule is second order and A-stable; predictions are
+model (bench/results/ocp_formulations.md). The rule is second order and A-stable; predictions are
 recomputed with the model's RK4 after each solve (paper: Final Algorithm).
 
 Objective (eq. Obj1): sum_i e_i^T W_s e_i + u_i^T W_u u_i, e_i = h_i - h_ref. Constraints: input
@@ -62,7 +62,7 @@ class ModeISettings:
     # rad: |pitch| at nodes 1..N. The ZYX Euler rates are singular at +-pi/2 (controller.kinematics);
     # without a bound the certificate's IPOPT wandered through it (iterations of 100 ms, its Hessian
     # regularized by up to 1e13) and ended at its cap on 38 of 210 recorded MuJoCo problems that the
-    # bound lets it solve (bench/results/min_violation_stop.md). None: no bound.
+    # bound lets it solve (experiment min_violation_stop.md, experiments/README.md). None: no bound.
     pitch_limit: float | None = 1.2
     max_iter: int = 100  # IPOPT
     tol: float = 1e-6  # IPOPT

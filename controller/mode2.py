@@ -1,38 +1,26 @@
 """Mode II of the switching NMPC (paper Sec. IV-B): bring the end-effector into contact with the
 obstacle at the end of the horizon, every body kept off every plane, with the timestep optimized.
 
-Variables per stage: x_k = (h_k, dt_k), v_k = (u_k, a_k), with dt_k+1 = dt_k. Carrying the one
-timestep dt as a state keeps the NLP stage-structured (controller.stage_nlp). Constraints: the
-midpoint dynamics over dt (controller.transcription), dt_min <= dt <= dt_max, input and joint
-bounds, the clearances of controller.transcription.clearances (the end-effector may touch the
-contact plane only) and, at the last node, the tip on the contact plane (eq.
-EE_Wall_Dist_Constraint). Objective (eq. Obj2): 1/(d_0,N + eps) + w |V_ee,N| with the hull's
-distance d_0 and the end-effector's velocity at the last node, plus a regularization of the inputs
-(1e-7 /N^2) and of the angular and joint rates (1e-2 s^2/rad^2): the paper's objective alone leaves
-the inputs of most stages free, and the arm then thrashed between solves.
+Variables per stage: x_k = (h_k, dt_k), v_k = (u_k, a_k), with dt_k+1 = dt_k (the one timestep carried
+as a state keeps the NLP stage-structured: controller.stage_nlp). Constraints: the midpoint dynamics
+over dt (controller.transcription), dt_min <= dt <= dt_max, input and joint bounds, the clearances of
+controller.transcription.clearances (the end-effector may touch the contact plane only) and, at the
+last node, the tip on the contact plane (eq. EE_Wall_Dist_Constraint). Objective (eq. Obj2):
+1/(d_0,N + eps) + w |V_ee,N| with the hull's distance d_0 and the end-effector's velocity at the last
+node, plus a regularization of the inputs (1e-7 /N^2) and of the angular and joint rates
+(1e-2 s^2/rad^2), which the paper's objective leaves free at most stages.
 
-Two departures from the paper, for the hand-over to Mode III (the note on issue 4 has the runs):
-- Intervals of 0.05 s (dt in [0.025, 0.05] s, dt_nom = 0.05 s) instead of the paper's 0.1 s. With
-  0.1 s, the arm swings at up to 8 rad/s in the last intervals before contact and the midpoint
-  rule's plan is off the model's own trajectory: from a state recorded in MuJoCo (wall-oblique,
-  seed 6) the plan's inputs put the tip 4.9 cm short of the wall under the model's fine RK4, 7.6 mm
-  with 0.05 s. In MuJoCo the tip was 5 to 11.5 cm off the wall at every Mode III entry of the runs
-  that ended with an arm link on the wall.
-- `terminal_margin` (4 cm): at contact every body the contact plane's clearances cover (the hull,
-  every link but the last) is at least that far off the plane, so that the arm meets the wall end-on
-  like a strut instead of lying along it (with 5 mm, the shoulder and elbow ended 1.5 to 2 cm off
-  the wall and hit it when the tip stopped).
-`controller.switching`'s contact check goes with them. On 72 MuJoCo runs of the three hardest
-families the three together turned 23 of the paper's failures into successes and 5 successes into
-failures (60 against 42 successes; validation.closed_loop.CONTROLLERS["switching-paper"] is the paper's).
+Not in the paper, for the hand-over to Mode III (with controller.switching's contact check):
+intervals of 0.05 s (dt in [0.025, 0.05] s; the paper: 0.1 s), and `terminal_margin` (4 cm): at
+contact every body the contact plane's clearances cover (the hull, every link but the last) is that
+far off the plane, so the arm meets the wall end-on like a strut. Evidence: docs/decisions.md,
+'0.05 s intervals, meeting the wall end-on'.
 
-Algorithm 1's variable horizon: on entry, N_p = ceil(t_c / dt_nom) with t_c the time to contact of a
-braking-and-deploying rollout (Algorithm 1's own rule, with t_exp estimated; the paper starts from
-the nominal N_p, which with dt >= dt_min forbids contact sooner than N_p dt_min). Each horizon
-length N_p is a different NLP, built on first use and cached. The stage functions and their
-compiled derivatives do not depend on N_p: they are derived and compiled (or loaded) once per
-contact plane, at construction (about 1.3 s), and a new N_p costs only the assembly of its NLP
-(about 10 ms).
+Algorithm 1's variable horizon: on entry N_p = ceil(t_c / dt_nom), t_c the time to contact of a
+braking-and-deploying rollout (the paper's nominal N_p, with dt >= dt_min, forbids contact sooner
+than N_p dt_min). Each N_p is a different NLP, built on first use and cached; the stage functions
+and their compiled derivatives do not depend on N_p and are built once per contact plane (about
+1.3 s), so a new N_p costs only its NLP's assembly (about 10 ms).
 """
 
 from __future__ import annotations
@@ -123,7 +111,7 @@ class ModeIIOCP:
                        ca.Function("tcons2", [xN, P], [tip_gap(model, h1, plane)]))
         self._name = f"mode2_{p.name}_{p.arm.name}_{plane.name}"
         # The adaptive barrier (probing oracle) converged on 23 of 26 Mode II problems recorded in MuJoCo
-        # closed loops, the monotone one from mu_init = 0.1 on 16 (the note on issue 4).
+        # closed loops, the monotone one from mu_init = 0.1 on 16.
         self._ipopt = {"print_level": 0, "max_iter": s.max_iter, "tol": s.tol, "mu_strategy": "adaptive",
                        "mu_oracle": "probing", "sb": "yes", **s.ipopt_options}
         self._solvers: dict[int, ca.Function] = {}

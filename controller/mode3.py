@@ -6,46 +6,20 @@ on the end-effector in the obstacle frame (x along the plane's normal, controlle
 obstacle_frame). The tip is a sphere, so the contact transmits no torque. Constraints: the midpoint
 dynamics with F_k (controller.transcription), the tip on the plane at every node (eq.
 EE_Wall_Dist_Constraint), F_n >= 0, the friction law, and the clearances of every body except the
-end-effector's link against the contact plane.
+end-effector's link against the contact plane. Friction (eq. Friction_Constraint, smooth form):
+F_t = -mu F_n v_t / sqrt(|v_t|^2 + delta^2), v_t the tip's tangential velocity at the interval's
+midpoint: the paper's two rows to within |v_t| / sqrt(|v_t|^2 + delta^2), and viscous below delta
+(1 cm/s), so the controller never counts on sticking.
 
-Friction (eq. Friction_Constraint, smooth form): F_t = -mu F_n v_t / sqrt(|v_t|^2 + delta^2) with
-v_t the tip's tangential velocity at the interval's midpoint. It satisfies the paper's two rows
-(|F_t| = mu |F_n| when sliding, F_t opposite to the sliding direction) to within the factor
-|v_t| / sqrt(|v_t|^2 + delta^2), and below delta (1 cm/s) it is a viscous law instead of static
-friction: the controller never counts on sticking.
-
-Objective (eq. Obj3): sum_i w_i relu(-d0_dot_i) with w_i = 1 + (N - i)/(N - 1): the paper's J_III
-read as the hull's approach speed (d0_dot < 0 approaching), weighted more at the start of the
-horizon and zero once the hull moves away; relu smoothed (controller.transcription.smooth_relu,
-1 cm/s: with 1 mm/s its curvature made the Hessian indefinite and IPOPT crept). IPOPT stops at its
-acceptable level (dual infeasibility 1e-2, constraints 1e-5) after 3 such iterations: a feasible
-plan matters here more than the last digits of the optimum. Regularization: 1e-5 |u|^2, 1e-6 |F|^2
-and 1e-3 of the squared angular and joint rates (the paper's objective alone leaves the inputs and
-the posture free once the hull separates, and IPOPT then creeps along that flat valley for hundreds
-of iterations).
-
-Not in the paper: J_III also pays `clearance_weight` (1/s) times the hull's shortfall from
-`hull_clearance` (5 cm) to the contact plane, relu-smoothed at 1 cm; both are parameters of the
-compiled problem, not constants. The paper's J_III is satisfied by a hull at rest wherever it is,
-and under a current onto the wall the small approach speeds left cost the plan less than the force
-to stop them. In MuJoCo with every thruster dead (thrusters-dead, 12 seeds) the hull crept onto the
-wall in 3 and 4 runs of 12 without the term, in 1 with it; the three hardest families (72 runs)
-succeed in all 72 with and without it. With 10 cm the thrusters-dead runs all succeed but 3 of the
-72 end with an arm link on the wall: the arm pushes the hull out fast enough to be released, and
-the modes cycle (203 switches against 118) (bench/results/hull_clearance).
-
-The horizon is 5 intervals (0.5 s) by default, not the paper's 20: with the tip held on the plane
-at every node, a 2 s plan must keep a drifting hull within the arm's reach and often has no
-solution; 10 intervals (1 s) were the default until the fourth session of 2026-12-01. On the Mode
-III problems recorded in MuJoCo closed loops, 5 intervals take 17 IPOPT iterations (39 p95) from
-the warm starts against 32 (96), and about a quarter of the time (bench/results/
-mode3_horizon_solves.md). In MuJoCo (bench/results/
-mode3_horizon) thrusters-dead then succeeds in 11 of 12 runs against 10, cycling through Modes II
-and III far less (19 switches against 50: with 1 s to fill, the plan pushes the hull out fast enough
-to be released, and the current brings it back); the three hardest families in 65 of 72 against 67,
-with no hull or link contact either way: the arm-deployed tip's first impact peaks 11 N higher on
-average (every seed but one), which puts two more of those runs (206 and 210 N) over the jaws'
-200 N.
+Objective (eq. Obj3): sum_i w_i relu(-d0_dot_i), w_i = 1 + (N - i)/(N - 1): the paper's J_III read
+as the hull's approach speed [m/s], relu smoothed at 1 cm/s (controller.transcription.smooth_relu;
+at 1 mm/s its curvature made the Hessian indefinite). Not in the paper: `clearance_weight` [1/s]
+times the hull's shortfall from `hull_clearance` (5 cm) to the contact plane, relu-smoothed at 1 cm
+(both parameters of the compiled problem). Regularization: 1e-5 |u|^2, 1e-6 |F|^2 and 1e-3 of the
+squared angular and joint rates (without it the inputs and the posture are free once the hull
+separates, and IPOPT creeps along that valley). IPOPT stops at its acceptable level (dual
+infeasibility 1e-2, constraints 1e-5) after 3 such iterations. The horizon is 5 intervals (0.5 s),
+not the paper's 20. Evidence: docs/decisions.md, 'Over 0.5 s' and 'J_III's hull-clearance term'.
 """
 
 from __future__ import annotations
@@ -188,7 +162,7 @@ class ModeIIIOCP:
         # Mode III problems recorded in MuJoCo closed loops the median iteration count fell from 89
         # (Algorithm 2's guess, the cold solver) to 38 when started from the previous solution's own
         # states; with its recomputed states (what the switching NMPC uses) the closed-loop medians
-        # were 66 and 132 (the note on issue 4). From Algorithm 2's guess, without multipliers, these
+        # were 66 and 132. From Algorithm 2's guess, without multipliers, these
         # options fail: the cold solver stays for that.
         warm = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
                 "mu_init": 1e-4}

@@ -48,10 +48,10 @@ class ModelOptions:
     rotor_inertia: bool = True
     abs_smoothing: float = 1e-4  # m/s or rad/s: |x| ~ sqrt(x^2 + s^2) in the drag laws (smooth NLPs)
     # m: |w| ~ sqrt(w^2 + s^2) in the superellipsoids' support function (controller.superellipsoid): the
-    # distances err on the safe side by <= 3 s (the default bodies: <= 0.9 mm). Until 2026-12-01 it was
-    # DELTA = 1e-7 m, where the distance of a face parallel to a plane has a curvature spike that made IPOPT
-    # oscillate: the certificate's minimum-violation problem then failed on 5 of 42 labelled cases that F
-    # calls feasible, and on none at 1e-3 m (bench/results/certificate_accuracy.md; the note on issue 4)
+    # distances err on the safe side by <= 3 s (the default bodies: <= 0.9 mm). At controller.superellipsoid's
+    # DELTA = 1e-7 m the distance of a face parallel to a plane has a curvature spike that makes IPOPT
+    # oscillate: the certificate's minimum-violation problem fails on 5 of 42 labelled cases that F calls
+    # feasible, and on none at 1e-3 m (docs/decisions.md, 'Superellipsoids' support function smoothed')
     support_smoothing: float = 1e-3
     link_drag_points: int = 3  # Gauss-Legendre points per link for cross-flow drag
 

@@ -13,14 +13,12 @@ the linearization, nothing more is dropped). The Hessian is the cost's own (Gaus
 constraints' curvature is left out), so with Mode I's quadratic cost it is constant and always
 positive semidefinite; a fixed point of the iteration is a KKT point of the NLP.
 
-Globalization: none, full steps; the warm start from the shifted previous plan is what keeps them
-in the region of full-step convergence.
-Converged (SUCCESS): the step's largest entry below `step_tol` and the constraint violation below
-`violation_tol`. At the iteration budget
-`max_iter` the iterate is FEASIBLE when its violation is below FEASIBLE_VIOLATION, else a
-REAL_TIME iterate when `real_time` is set (the real-time iteration of Diehl, Bock and Schloeder
-2005 with max_iter = 1: one QP per control period, the iterates converge over the periods), else
-MAX_ITER. A failed QP is FAILED; the caller falls back (controller.switching).
+Globalization: none, full steps; the warm start from the shifted previous plan keeps them in the
+region of full-step convergence. Converged (SUCCESS): the step's largest entry below `step_tol` and
+the constraint violation below `violation_tol`. At `max_iter` the iterate is FEASIBLE when its
+violation is below FEASIBLE_VIOLATION, else REAL_TIME when `real_time` is set (with max_iter = 1 the
+real-time iteration of Diehl, Bock and Schloeder 2005: one QP per control period, converging over
+the periods), else MAX_ITER. A failed QP is FAILED; the caller falls back (controller.switching).
 """
 
 from __future__ import annotations

@@ -11,20 +11,15 @@ body with centre c and rotation R (superellipsoid frame -> world); negative when
 One CasADi formula serves every caller: the public functions evaluate casadi.Functions, so they return SX/MX
 for symbolic arguments and floats / numpy arrays for numeric ones.
 
-Smoothing (so that values, gradients and Hessians are finite everywhere, e.g. for u along an axis):
-|w| -> sqrt(w^2 + s^2), which overestimates h by at most 3 s (s = DELTA = 1e-7 m by default: 3e-7 m); each l_q
-norm is evaluated with its largest term factored out (no under/overflow for large q); q is capped at Q_MAX (only
-eps > 2 - 2/Q_MAX = 1.9998 is affected, e.g. eps = 2 exactly, where the norm is l_inf), which overestimates h by a
-factor of at most 2^(2/Q_MAX) - 1 = 1.4e-4 (70 um on a 0.5 m body). h is never underestimated, so distances err
-on the safe side.
-
-The smoothing length s also sets how far from non-smooth the distance is. For box-like bodies (eps < 1, so q < 2)
-the terms |w|^q have unbounded curvature at w = 0, and w = 0 is where a face lies parallel to the plane: the hull
-facing a wall, a link pointing its flat end at it. There the curvature is of order s^(q - 2): the default hull
-(q = 1.25) facing a wall has d''(yaw) = -b^2 s^(q-2) / a^(q-1) at yaw 0, -2.1e4 m/rad^2 at s = 1e-7 m and -21 m/rad^2
-at s = 1e-3 m (tests/test_superellipsoid.py), and the curvature falls to that of the unsmoothed body within about
-s / b rad. Newton-type solvers oscillate on such a spike (controller.model.ModelOptions.support_smoothing, which the
-NLPs use, says what we measured).
+Smoothing (finite values, gradients and Hessians everywhere, e.g. for u along an axis): |w| -> sqrt(w^2 + s^2),
+which overestimates h by at most 3 s (s = DELTA = 1e-7 m here; the NLPs use ModelOptions.support_smoothing); each
+l_q norm is evaluated with its largest term factored out (no under/overflow for large q); q is capped at Q_MAX
+(only eps > 1.9998, e.g. eps = 2 where the norm is l_inf), which overestimates h by at most a factor
+2^(2/Q_MAX) - 1 = 1.4e-4 (70 um on a 0.5 m body). h is never underestimated: distances err on the safe side.
+For box-like bodies (eps < 1, q < 2) the curvature at a face parallel to the plane (w = 0) is of order
+s^(q - 2): the default hull facing a wall has d''(yaw) = -b^2 s^(q-2) / a^(q-1), -2.1e4 m/rad^2 at s = 1e-7 m and
+-21 m/rad^2 at 1e-3 m (tests/test_superellipsoid.py), within about s / b rad of yaw 0. Evidence for the NLPs'
+s: docs/decisions.md, 'Superellipsoids' support function smoothed at 1e-3 m'.
 """
 
 from __future__ import annotations

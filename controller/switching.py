@@ -130,8 +130,9 @@ class SwitchingNMPC:
         self._mode3: dict[int, ModeIIIOCP] = {}
         self.set_failed_thrusters(settings.failed_thrusters)
         if settings.switching:
-            for plane in range(len(self.planes)):  # no assembly stall at the first switch
-                self.ocp2(plane)
+            for plane in range(len(self.planes)):  # no assembly stall at the first switch, nor at a new N_p
+                for n in range(1, settings.mode2.horizon + 1):
+                    self.ocp2(plane).solver(n)
                 self.ocp3(plane)
         self.mode = Mode.I
         self.contact: int | None = None
@@ -316,9 +317,7 @@ class SwitchingNMPC:
         leave Mode II no time. The tip and the last link are left out so that an arm still on the
         wall after Mode III does not count. It also applies right after Mode III lets go: with a
         current pushing the hull back, the rollout soon returns it, and Mode II then re-plans with
-        the arm still near the wall. (Applying it only while the hull approaches, d_0' <= 0, let Mode
-        I swing the arm away first: 3 more arm-link contacts in 72 MuJoCo runs, none fewer; the note
-        on issue 4.)"""
+        the arm still near the wall (docs/decisions.md, 'The deploy deadline')."""
         if not self.settings.deploy_deadline or cert.rollout_clearance >= 0:
             return False
         s, ocp2 = self.settings.mode1, self.ocp2(self._closest_plane(cert.rollout))

@@ -1,5 +1,5 @@
 """Mode I of the switching NMPC in closed loop on the paper's model itself (the MuJoCo closed loop
-is a separate issue): an approach the thrusters can stop."""
+is tests/test_closed_loop.py): an approach the thrusters can stop."""
 
 from __future__ import annotations
 

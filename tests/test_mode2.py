@@ -82,7 +82,7 @@ def test_terminal_margin_holds_every_other_body_off_the_wall_at_contact(params, 
     those bodies at least 3.5 cm off and the tip within 1 cm of the wall (measured 4.3 cm and 5 mm:
     the midpoint rule's error on an arm swinging at up to 9 rad/s). With the default 0.1 s intervals
     the same plan's tip ends 4 cm short of the wall under RK4, which is why the intervals are 0.05 s
-    here (the note on issue 4)."""
+    here (docs/decisions.md, '0.05 s intervals, meeting the wall end-on')."""
     model = UVMSModel(params, scene.water)
     rec = np.load(Path(__file__).parent / "data" / "wall_oblique_mode2_entry.npz")
     h0, current = rec["h"], rec["current"]

@@ -38,7 +38,8 @@ def setup(request, scene):
 def test_mass_matrix_and_bias_equal_both_oracles(setup) -> None:
     """100 random states per arm: M(q) and the bias b(q, nu) = -(Coriolis + gravity) equal
     Pinocchio's (crba, rnea) and MuJoCo's (mj_fullM, qfrc_bias, mapped to the paper's speeds) to
-    1e-8 relative (the issue's tolerance; the three agree to ~1e-14). So does the compiled
+    1e-8 relative (the three agree to ~1e-14: 1e-8 leaves room for rounding and catches any
+    modelling difference). So does the compiled
     `mass_and_bias` (the braking rollout's), which must also equal the SX functions to the bit (the
     same operations in C)."""
     p, model, oracles = setup

@@ -32,9 +32,9 @@ def step_response(p, scene, axis: int, amplitude: float, settings=NO_GRAVITY, st
 def test_initial_acceleration_is_force_over_rigid_plus_added_mass(hull_only, open_water, axis, scale) -> None:
     """A step force (10 N) or torque (1 N m) along each hull axis gives, in the first physics step,
     the acceleration of Fossen's rigid-body plus added mass matrix, (M_RB + M_A)^-1 w, within 3%
-    of its on-axis value on every axis (the issue's tolerance; the trimmed hull's CoM is a few mm
-    off the origin, so M_RB couples axes slightly; velocity-dependent fluid terms are ~1e-3 of
-    the inertial ones after 2 ms)."""
+    of its on-axis value on every axis. 3%: the trimmed hull's CoM is a few mm off the origin, so
+    M_RB couples axes slightly, and velocity-dependent fluid terms are ~1e-3 of the inertial ones
+    after 2 ms; a missing or wrongly placed added-mass term is off by far more."""
     p = with_hull(hull_only, added_mass=hull_only.hull.added_mass * scale)
     amp = 10.0 if axis < 3 else 1.0
     v, t = step_response(p, open_water, axis, amp)

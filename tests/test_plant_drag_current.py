@@ -20,8 +20,8 @@ def test_fossen_terminal_speed_closed_form() -> None:
 @pytest.mark.slow
 def test_terminal_speeds_within_a_factor_of_two_of_fossen(params, scene) -> None:
     """Surge, sway, heave under 20 N and yaw under 2 N m: MuJoCo's ellipsoid drag and the Fossen
-    damping differ on purpose; the issue asks only that they agree within a factor of 2
-    (README lists the figures: `python -m uvms_mj.hydro_report`)."""
+    damping differ on purpose, so they need agree only within a factor of 2, which still
+    catches a wrong unit or a missing term (`python -m uvms_mj.hydro_report` prints the figures)."""
     rows = terminal_speeds(params, scene)
     assert [r.axis for r in rows] == ["surge", "sway", "heave", "yaw"]
     for r in rows:

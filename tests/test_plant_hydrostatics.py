@@ -16,8 +16,8 @@ def test_initial_vertical_acceleration(hull_only, open_water, volume: float) -> 
     """From rest, with no thrust: a_z = (rho V - m) g / (m + m_A,heave) within 2%.
 
     Measured as the velocity after one 2 ms physics step (drag ~ v^2 is still ~1e-8 of the net
-    force). 2% is the issue's tolerance; the plant's construction is exact up to the 1e-3 kg
-    centre-of-buoyancy bodies, which are compensated.
+    force). 2%: the plant's construction is exact up to the 1e-3 kg centre-of-buoyancy bodies,
+    which are compensated, so 2% catches a wrong sign or a missing term (the heave added mass).
     """
     p = with_hull(hull_only, volume=volume)
     plant = Plant(p, open_water)

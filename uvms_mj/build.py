@@ -203,8 +203,10 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
     for t in params.thrusters:
         hull.add_site(name=t.name, pos=t.position, quat=quat_z_to(t.direction),
                       type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.03, 0.02, 0], rgba=[0.9, 0.6, 0.1, 1])
-    hull.add_camera(name="chase", pos=[0.9, -2.0, 0.6], mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
-                    quat=_look_quat(np.array([-0.7, 2.0, -0.7])))
+    # from the side (world -y), 0.4 m ahead of the hull and a little above it, following its centre
+    # of mass: the hull, the arm and a wall up to about 1 m ahead stay in frame
+    hull.add_camera(name="chase", pos=[0.4, -3.0, 0.8], mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
+                    quat=_look_quat(np.array([0.0, 3.0, -0.8])))
 
     parent, offset = hull, np.asarray(h.arm_mount)
     for i, lk in enumerate(params.arm.links):
@@ -257,12 +259,17 @@ def _scene_geometry(spec: mujoco.MjSpec, scene: Scene) -> None:
                      builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.25, 0.3, 0.3],
                      rgb2=[0.35, 0.4, 0.4], width=256, height=256)
     spec.add_material(name="grid", textures=["", "grid"], texrepeat=[4, 4], reflectance=0.0)
+    spec.add_texture(name="wall", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.55, 0.5, 0.4],
+                     rgb2=[0.65, 0.6, 0.5], width=256, height=256)
+    spec.add_material(name="wall", textures=["", "wall"], texrepeat=[8, 8], reflectance=0.0, emission=0.3)
     spec.worldbody.add_light(name="sun", pos=[0, 0, 6], dir=[0, 0.2, -1], castshadow=False)
     obs = spec.find_default(OBSTACLE_CLASS)
     for p in scene.planes:
         spec.worldbody.add_geom(
             name=f"plane_{p.name}", default=obs, type=mujoco.mjtGeom.mjGEOM_PLANE,
-            pos=p.point, quat=quat_z_to(p.normal), size=[10, 10, 0.25], material="grid",
+            pos=p.point, quat=quat_z_to(p.normal), size=[10, 10, 0.25],
+            material="grid" if abs(p.normal[2]) > 0.7 else "wall",  # seafloor-like or wall-like
             friction=[p.friction, 0.005, 0.0001], condim=3 if p.friction > 0 else 1)
 
 

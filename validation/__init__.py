@@ -1,1 +1,1 @@
-"""Closed-loop testbed joining the plant and the controller. Built in later issues."""
+"""Closed-loop testbed joining the plant and the controller."""

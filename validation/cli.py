@@ -2,6 +2,8 @@
 
   uvms scenarios                                   list the scenarios (name, tags, description)
   uvms controllers                                 list the controller presets, one line each
+  uvms build [--scenarios A,B] [--controllers C,D] [--ctl key=value ...] [--workers K]
+                                                   compile what those runs need, ahead, in parallel
   uvms run NAME [--set key=value ...] [--controller C] [--ctl key=value ...] [--mismatch M]
                [--seed N] [--out DIR] [--video FILE] [--record FILE] [--plots DIR] [--latency L]
                                                    run one in closed loop against MuJoCo
@@ -82,6 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     sub = ap.add_subparsers(dest="command", required=True)
     sub.add_parser("scenarios", help="list the scenarios")
     sub.add_parser("controllers", help="list the controller presets")
+    build = sub.add_parser("build", help="compile the generated code of scenarios and controllers ahead")
     run = sub.add_parser("run", help="run one scenario in closed loop against MuJoCo")
     run.add_argument("scenario", help="a scenario name (uvms scenarios)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
@@ -110,9 +113,14 @@ def main(argv: list[str] | None = None) -> int:
     camp.add_argument("--mismatch", default="default", help='as for run: "default", "none" or terms')
     camp.add_argument("--seeds", type=int, default=1, help="mismatch draws per scenario (seeds K..K+N-1)")
     camp.add_argument("--first-seed", type=int, default=0, metavar="K", help="the first seed (default 0)")
-    for parser in (run, camp):
+    default_scenarios = ",".join(n for n in SCENARIOS if "kane" not in SCENARIOS[n].tags)
+    build.add_argument("--scenarios", default=default_scenarios, help="comma-separated names (default: all but kane)")
+    build.add_argument("--controllers", default="switching,mode1-only,braking", help="comma-separated")
+    build.add_argument("--workers", type=int, default=None, help="processes (default: the cores)")
+    for parser in (run, camp, build):
         parser.add_argument("--ctl", action="append", default=[], metavar="KEY=VALUE",
                             help="override a controller setting, dotted, e.g. mode3.horizon=10")
+    for parser in (run, camp):
         parser.add_argument("--latency", default="none",
                             help='computation delay: "none" (the plant waits for the controller; default), '
                                  '"measured" (each step\'s own wall-clock time on this machine) or seconds; '
@@ -132,6 +140,14 @@ def main(argv: list[str] | None = None) -> int:
             for name, p in table.items():
                 print(f"{name:<{width}}  {p.description}")
             return 0
+        if args.command == "build":
+            from validation import precompile, presets
+            controllers, ctl = [c for c in args.controllers.split(",") if c], _overrides(args.ctl)
+            for c in controllers:
+                presets.resolve(c, ctl)
+            built = precompile.build([get(n) for n in args.scenarios.split(",") if n], controllers, ctl, args.workers)
+            print(f"built {built} pieces" if built else "everything is compiled already")
+            return 0
         if args.command == "view":
             return _view(args.recording)
         if args.command == "campaign":
@@ -143,12 +159,16 @@ def main(argv: list[str] | None = None) -> int:
                 presets.resolve(c, ctl)  # an unknown name or setting fails here, in one line
             overrides = _overrides(args.set)
             scenarios = [get(n).with_overrides(overrides) for n in args.scenarios.split(",") if n]
+            from validation import precompile
+            precompile.build(scenarios, controllers, ctl, args.workers)
             rows = campaign(scenarios, controllers, args.workers, args.out, _mismatch(args.mismatch), args.seeds,
                             args.first_seed, args.latency, ctl)
             print(Path(args.out / "results.md").read_text())
             return 0 if all(r.get("verdict") != "error" for r in rows) else 1
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
+        from validation import precompile
         from validation.closed_loop import run as run_scenario  # heavy imports only when running
+        precompile.build([scenario], [args.controller], _overrides(args.ctl))
         summary = run_scenario(scenario, controller=args.controller, ctl=_overrides(args.ctl),
                                mismatch=_mismatch(args.mismatch), seed=args.seed, latency=args.latency,
                                out=args.out, video=args.video, record=args.record, plots=args.plots)

@@ -1,4 +1,4 @@
-"""The plant and a scenario as a dm-control `control.Environment` (a `dm_env` task, issue 5): for
+"""The plant and a scenario as a dm-control `control.Environment` (a `dm_env` task): for
 learned controllers or learned initial guesses, with the same physics and mismatch as the NMPC.
 
 Observations: `state` (the paper's h, measured from MuJoCo) and `wall_distance` (every vehicle

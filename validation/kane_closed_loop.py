@@ -1,5 +1,5 @@
-"""The switching NMPC in closed loop on the paper's model itself (issue 4's evidence; the MuJoCo
-closed loop is issue 5): wall approaches, the input held over each step's dt (Mode II's dt*), the
+"""The switching NMPC in closed loop on the paper's model itself (the MuJoCo closed loop is
+validation.closed_loop): wall approaches, the input held over each step's dt (Mode II's dt*), the
 plant validation.model_plant.ModelPlant (the model's RK4 at 2 ms with a penalty tip contact).
 
 `python -m validation.kane_closed_loop [--controller NAME] [SCENARIO ...]` runs the scenarios,

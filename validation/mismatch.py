@@ -1,4 +1,4 @@
-"""Declared, seeded model mismatch between the controller's parameters and the plant's (issue 5).
+"""Declared, seeded model mismatch between the controller's parameters and the plant's.
 
 A mismatch is written as terms separated by spaces, each `name OP distribution`:
     added_mass*U(0.8,1.2)   scale the plant's added mass (hull and links)

@@ -1,5 +1,5 @@
 """The paper's model itself as a plant, with a penalty contact at the end-effector tip: the closed
-loop of the switching NMPC before MuJoCo (issue 4's evidence).
+loop of the switching NMPC without MuJoCo (validation.kane_closed_loop).
 
 Contact: the tip's sphere against every plane, normal force F_n = max(0, k pen - c v_n) (a stiff
 spring-damper, k = 2e4 N/m, c = 300 N s/m) and the same regularized Coulomb law as the controller's
