@@ -70,7 +70,7 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
     overrides = tuple(sorted((ctl or {}).items()))
     jobs = [Job(s, c, mismatch, seed, latency, overrides) for s in scenarios
             for seed in range(first_seed, first_seed + seeds) for c in controllers]
-    rows, started = [], time.perf_counter()
+    rows, started, origin = [], time.perf_counter(), manifest.start()
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=ctx) as pool:
         futures = [pool.submit(run_job, j) for j in jobs]
@@ -95,7 +95,7 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
                                           "overrides": r.overrides, "settings": r.settings_dict()}
         except ValueError as e:
             settings["controllers"][c] = {"error": str(e)}
-    manifest.write(out, settings, time.perf_counter() - started)
+    manifest.write(out, settings, time.perf_counter() - started, started=origin)
     return rows
 
 

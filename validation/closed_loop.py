@@ -204,6 +204,8 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
         watching.append(recording)
     ts, chunk = plant.model.opt.timestep, 0.1
     steps: list[StepRecord] = []
+    from validation import manifest
+    origin = manifest.start() if out is not None else None
     wall_clock, u_prev, paced_from = time.perf_counter(), None, None
     try:
         while plant.t < sc.duration - 1e-9:
@@ -235,10 +237,9 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             obs.close()
     if out is not None:
         summary.write(out / "summary.json")
-        from validation import manifest
         manifest.write(out, {"scenario": summary.scenario, "controller": summary.controller,
                              "controller_settings": summary.controller_settings, "mismatch": summary.mismatch,
-                             "latency": latency}, summary.wall_clock_s)
+                             "latency": latency}, summary.wall_clock_s, started=origin)
     if plots is not None:
         from validation import plots as figures
         names = {"thrusters": [th.name for th in params.thrusters], "joints": [lk.name for lk in params.arm.links]}

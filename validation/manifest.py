@@ -46,15 +46,23 @@ def host() -> dict[str, Any]:
             "python": platform.python_version(), "packages": versions}
 
 
-def manifest(settings: dict[str, Any], wall_time_s: float, command: list[str] | None = None) -> dict[str, Any]:
-    """The manifest of a result made with `settings` (resolved, plain data) in `wall_time_s`."""
+def start() -> dict[str, Any]:
+    """What a result's making starts from: the commit (and whether the tree differs from it) and the
+    date, taken when the work starts (the tree may change while it runs)."""
+    return {"commit": _git("rev-parse", "HEAD"), "dirty": bool(_git("status", "--porcelain", "--untracked-files=no")),
+            "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")}
+
+
+def manifest(settings: dict[str, Any], wall_time_s: float, command: list[str] | None = None,
+             started: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The manifest of a result made with `settings` (resolved, plain data) in `wall_time_s`, from
+    `started` (`start()` when the work began; now if not given)."""
     return {"command": " ".join(command if command is not None else ["uvms", *sys.argv[1:]]),
-            "commit": _git("rev-parse", "HEAD"), "dirty": bool(_git("status", "--porcelain", "--untracked-files=no")),
-            "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-            "wall_time_s": wall_time_s, "host": host(), "settings": settings}
+            **(started or start()), "wall_time_s": wall_time_s, "host": host(), "settings": settings}
 
 
-def write(folder: Path, settings: dict[str, Any], wall_time_s: float, command: list[str] | None = None) -> Path:
+def write(folder: Path, settings: dict[str, Any], wall_time_s: float, command: list[str] | None = None,
+          started: dict[str, Any] | None = None) -> Path:
     path = Path(folder) / "manifest.json"
-    path.write_text(json.dumps(manifest(settings, wall_time_s, command), indent=1, default=str))
+    path.write_text(json.dumps(manifest(settings, wall_time_s, command, started), indent=1, default=str))
     return path
