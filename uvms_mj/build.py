@@ -203,10 +203,11 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
     for t in params.thrusters:
         hull.add_site(name=t.name, pos=t.position, quat=quat_z_to(t.direction),
                       type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.03, 0.02, 0], rgba=[0.9, 0.6, 0.1, 1])
-    # from the side (world -y), 0.4 m ahead of the hull and a little above it, following its centre
-    # of mass: the hull, the arm and a wall up to about 1 m ahead stay in frame
-    hull.add_camera(name="chase", pos=[0.4, -3.0, 0.8], mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
-                    quat=_look_quat(np.array([0.0, 3.0, -0.8])))
+    # from the side (world -y) and a little above, level with the hull in x (so on the water side of
+    # a wall ahead) and turned towards its front, following its centre of mass: the hull, the arm and
+    # a wall up to about 1 m ahead stay in frame
+    hull.add_camera(name="chase", pos=[0.0, -3.0, 0.8], mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
+                    quat=_look_quat(np.array([0.45, 3.0, -0.8])))
 
     parent, offset = hull, np.asarray(h.arm_mount)
     for i, lk in enumerate(params.arm.links):
