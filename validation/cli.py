@@ -160,18 +160,28 @@ def main(argv: list[str] | None = None) -> int:
             overrides = _overrides(args.set)
             scenarios = [get(n).with_overrides(overrides) for n in args.scenarios.split(",") if n]
             from validation import precompile
+            from validation.closed_loop import make_folders, parse_latency
+            parse_latency(args.latency)
+            spec = _mismatch(args.mismatch)
+            make_folders(args.out)
             precompile.build(scenarios, controllers, ctl, args.workers)
-            rows = campaign(scenarios, controllers, args.workers, args.out, _mismatch(args.mismatch), args.seeds,
+            rows = campaign(scenarios, controllers, args.workers, args.out, spec, args.seeds,
                             args.first_seed, args.latency, ctl)
             print(Path(args.out / "results.md").read_text())
             return 0 if all(r.get("verdict") != "error" for r in rows) else 1
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
-        from validation import precompile
+        from validation import precompile, presets
+        from validation.closed_loop import make_folders, parse_latency
         from validation.closed_loop import run as run_scenario  # heavy imports only when running
-        precompile.build([scenario], [args.controller], _overrides(args.ctl))
-        summary = run_scenario(scenario, controller=args.controller, ctl=_overrides(args.ctl),
-                               mismatch=_mismatch(args.mismatch), seed=args.seed, latency=args.latency,
-                               out=args.out, video=args.video, record=args.record, plots=args.plots)
+        ctl, mismatch = _overrides(args.ctl), _mismatch(args.mismatch)
+        presets.resolve(args.controller, ctl)  # bad input fails here, in one line, before any compiling
+        parse_latency(args.latency)
+        make_folders(args.out, args.video.parent if args.video else None, args.record.parent if args.record else None,
+                args.plots)
+        precompile.build([scenario], [args.controller], ctl)
+        summary = run_scenario(scenario, controller=args.controller, ctl=ctl, mismatch=mismatch, seed=args.seed,
+                               latency=args.latency, out=args.out, video=args.video, record=args.record,
+                               plots=args.plots)
     except ValueError as e:
         print(f"uvms: error: {e}", file=sys.stderr)
         return 2

@@ -150,7 +150,7 @@ def task_of(sc: Scenario, params: UVMSParams, scene: Scene) -> Task:
                 known_faults=known, duration=sc.duration)
 
 
-def _mkdirs(*paths: Path | None) -> None:
+def make_folders(*paths: Path | None) -> None:
     for path in paths:
         if path is not None:
             try:
@@ -184,7 +184,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             raise ValueError("ctl overrides with a controller object; allowed: a preset name with ctl, or an object")
         resolved, ctl_obj = presets.of_object(controller), controller
     spec = parse_latency(latency)
-    _mkdirs(out, video.parent if video else None, record.parent if record else None, plots)
+    make_folders(out, video.parent if video else None, record.parent if record else None, plots)
     params, scene, plant, drawn = build_plant(sc, mismatch, seed)
     task = task_of(sc, params, scene)
     plant.reset(task.h0)
