@@ -1,6 +1,7 @@
 # Two commands do all the set-up on a fresh machine (python3 with venv, no GPU, no display):
 #   make demo   -- create .venv if missing, run wall-headon in closed loop against MuJoCo into out/
 #   make test   -- create .venv if missing, run ruff and the whole test suite
+#   make bench  -- the benchmarks, into bench/results/ (needs the bench extra: do-mpc)
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -29,7 +30,8 @@ bench: $(VENV)/.installed
 	$(PY) bench/nmpc_modes.py
 	$(PY) bench/closed_loop_rtf.py
 	$(PY) bench/mode3_solvers.py --record 2
-	$(PY) bench/certificate_search.py
+	$(PY) bench/min_violation_stop.py --record 2
+	$(PY) bench/min_violation_stop.py
 
 assets: $(VENV)/.installed
 	$(PY) -m uvms_mj.export

@@ -40,7 +40,7 @@ def test_compiled_stage_derivatives_give_the_expanded_solution(params, scene) ->
 
 
 def test_ipopt_stopped_by_its_wall_clock_limit_counts_as_its_iteration_cap(params, scene) -> None:
-    """IPOPT's wall-clock limit (max_wall_time, used by validation.closed_loop's real-time variants)
+    """IPOPT's wall-clock limit (max_wall_time, which a preset can set through its ipopt_options)
     set to 1 ns stops it within its first iterations (here at its start). Oracle: the same solve
     capped at that many iterations without the limit; the two iterates are the same and so is the
     status (MAX_ITER, or FEASIBLE when the iterate satisfies the constraints), not a failure."""

@@ -151,6 +151,7 @@ def task_of(sc: Scenario, params: UVMSParams, scene: Scene) -> Task:
 
 
 def make_folders(*paths: Path | None) -> None:
+    """Create the output folders (None: skipped); one line naming the path if one cannot be made."""
     for path in paths:
         if path is not None:
             try:
