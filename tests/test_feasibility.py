@@ -58,6 +58,17 @@ def recorded(name: str) -> dict:
     return dict(np.load(DATA / name))
 
 
+def certify_call(test: FeasibilityTest, rec: dict, fresh: bool = False) -> Certificate:
+    """The certificate of a recorded call, under the call's input bounds (restored after), with the
+    call's fresh Mode I plan as the third screen when `fresh`."""
+    plan = (rec["fresh_h"], rec["fresh_u"]) if fresh else None
+    try:
+        test.limit_inputs(rec["input_lo"], rec["input_hi"])
+        return test(rec["h0"], rec["h_ref"], rec["current"], fresh=(lambda: plan) if fresh else None)
+    finally:
+        test.limit_inputs(*test.model.params.input_bounds())
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(("gap", "speed", "verdict", "method"), [
     (1.5, 0.3, Verdict.FEASIBLE, Method.BRAKING_ROLLOUT),
@@ -161,11 +172,7 @@ def test_stopped_solve_returns_a_certified_point_of_F(oblique) -> None:
     default certificate's solve ends at a certified point of F (oracle: assert_certified), and when
     it stopped early (STOPPED), the plan it carries is its inputs' own RK4 re-simulation from h0."""
     test, rec = oblique
-    try:
-        test.limit_inputs(rec["input_lo"], rec["input_hi"])
-        c = test(rec["h0"], rec["h_ref"], rec["current"])
-    finally:
-        test.limit_inputs(*test.model.params.input_bounds())
+    c = certify_call(test, rec)
     assert_certified(test, rec["h0"], c, rec["current"])
     if c.solution.status is SolverStatus.STOPPED:
         np.testing.assert_array_equal(c.solution.h, simulate(test.model, rec["h0"], c.solution.u, test.settings.dt,
@@ -180,11 +187,7 @@ def test_pitch_bound_holds_on_the_certificate_plan(oblique) -> None:
     within the bound, by RK4 at 20 substeps, not by the solver's own account."""
     test, rec = oblique
     assert test.settings.pitch_limit == ModeISettings().pitch_limit == 1.2
-    try:
-        test.limit_inputs(rec["input_lo"], rec["input_hi"])
-        c = test(rec["h0"], rec["h_ref"], rec["current"])
-    finally:
-        test.limit_inputs(*test.model.params.input_bounds())
+    c = certify_call(test, rec)
     assert_certified(test, rec["h0"], c, rec["current"])
     hs = simulate(test.model, rec["h0"], c.solution.u, test.settings.dt, substeps=20, current=rec["current"])
     assert np.abs(hs[:, PITCH]).max() <= test.settings.pitch_limit
@@ -204,5 +207,5 @@ def test_witness_from_mode_one_plan_certifies_where_every_screen_fails(params) -
     rec = recorded("wall_oblique_fresh_plan_call.npz")
     test.limit_inputs(rec["input_lo"], rec["input_hi"])
     assert not test.plan_is_feasible(rec["fresh_h"], rec["fresh_u"])
-    c = test(rec["h0"], rec["h_ref"], rec["current"], fresh=lambda: (rec["fresh_h"], rec["fresh_u"]))
+    c = certify_call(test, rec, fresh=True)
     assert_certified(test, rec["h0"], c, rec["current"])

@@ -55,7 +55,7 @@ class ContactTally:
                              self.min_distance.copy())
 
     def close(self) -> None:
-        pass
+        """Nothing to release."""
 
 
 class Telemetry:
@@ -89,7 +89,7 @@ class Telemetry:
         return {k: np.asarray(v) for k, v in self.data.items()}
 
     def close(self) -> None:
-        pass
+        """Nothing to release."""
 
 
 class Video:
