@@ -329,3 +329,23 @@ def test_every_preset_steps_on_every_scenario(preset, tmp_path) -> None:
     for name in SCENARIOS:
         s = run(replace(get(name), duration=0.3), controller=preset, seed=0)
         assert s.steps and 0.3 <= s.simulated_s + 1e-9 < 0.4 and s.verdict in {o.value for o in Outcome}
+
+
+class _Garbage:
+    """A controller that returns a non-finite input (the loop must refuse it, not pass it on)."""
+
+    def reset(self, task) -> None:
+        self.n = task.params.n_inputs
+
+    def step(self, h, t):
+        from controller.protocol import StepInfo
+
+        return np.full(self.n, np.nan), StepInfo(t=t, dt=0.1)
+
+
+def test_a_controller_returning_garbage_is_stopped_in_one_line() -> None:
+    """A controller's non-finite input stops the run with one line naming the controller and what
+    is allowed, before the plant receives it."""
+    with pytest.raises(ValueError, match="allowed") as err:
+        run(replace(get("avoid-wall"), duration=0.2), controller=_Garbage(), mismatch=NONE)
+    assert "_Garbage" in str(err.value) and "\n" not in str(err.value)

@@ -42,8 +42,8 @@ from uvms.params import UVMSParams
 from uvms.scene import Scene
 from uvms_mj.build import HULL
 from uvms_mj.plant import Plant
+from validation import manifest, presets
 from validation import mismatch as mismatches
-from validation import presets
 from validation.observers import ContactTally, Observer, Telemetry, Video
 from validation.scenarios import Scenario
 from validation.setup import build_plant, initial_state, max_thrust_along, reference, wall_x  # noqa: F401
@@ -205,7 +205,6 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
         watching.append(recording)
     ts, chunk = plant.model.opt.timestep, 0.1
     steps: list[StepRecord] = []
-    from validation import manifest
     origin = manifest.start() if out is not None else None
     wall_clock, u_prev, paced_from = time.perf_counter(), None, None
     try:
@@ -216,6 +215,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             t0 = time.perf_counter()
             u, info = ctl_obj.step(plant.state(), t)
             computed = time.perf_counter() - t0
+            _check_step(resolved.name, u, info, params.n_inputs)
             paced_from = time.perf_counter() if paced_from is None else paced_from
             dt = max(ts, round(info.dt / ts) * ts)
             mode = label(info.mode)
@@ -246,6 +246,18 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
         names = {"thrusters": [th.name for th in params.thrusters], "joints": [lk.name for lk in params.arm.links]}
         figures.write(telemetry.arrays(), names, plots)
     return summary
+
+
+def _check_step(name: str, u: np.ndarray, info: StepInfo, n_inputs: int) -> None:
+    """One line naming the controller when its step is not (n_inputs finite numbers, a StepInfo with
+    a finite dt > 0)."""
+    u = np.asarray(u)
+    if u.shape != (n_inputs,) or not np.all(np.isfinite(u)):
+        raise ValueError(f"controller {name} returned an input of shape {u.shape} or non-finite entries; allowed: "
+                         f"{n_inputs} finite numbers (thruster forces N, joint torques N m)")
+    if not isinstance(info, StepInfo) or not (np.isfinite(info.dt) and info.dt > 0):
+        raise ValueError(f"controller {name} returned {type(info).__name__} with dt {getattr(info, 'dt', None)}; "
+                         "allowed: a controller.protocol.StepInfo with a finite dt > 0 [s]")
 
 
 def _record(t: float, period: float, delay: float, info: StepInfo, computed: float) -> StepRecord:
