@@ -47,4 +47,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from validation import manifest
+
+    with manifest.recorded(Path(__file__).parent / "results" / "closed_loop_rtf.manifest.json"):
+        main()

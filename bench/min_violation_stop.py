@@ -123,4 +123,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from validation import manifest
+
+    with manifest.recorded(Path(__file__).parent / "results" / "min_violation_stop.manifest.json"):
+        main()

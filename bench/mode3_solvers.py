@@ -231,4 +231,7 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    from validation import manifest
+
+    with manifest.recorded(Path(__file__).parent / "results" / "mode3_solvers.manifest.json"):
+        main(sys.argv[1:])

@@ -97,4 +97,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from validation import manifest
+
+    with manifest.recorded(Path(__file__).parent / "results" / "model_eval.manifest.json"):
+        main()

@@ -105,4 +105,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from validation import manifest
+
+    with manifest.recorded(Path(__file__).parent / "results" / "ocp_formulations.manifest.json"):
+        main()

@@ -129,4 +129,8 @@ if __name__ == "__main__":
     unknown = [n for n in args.scenarios if n not in SCENARIOS]
     if unknown:
         parser.error(f"unknown scenario {unknown[0]!r}; allowed: {', '.join(SCENARIOS)}")
-    main(args.scenarios, args.controller)
+    from validation import manifest
+
+    suffix = "" if args.controller == "switching" else f"_{args.controller}"
+    with manifest.recorded(OUT / f"kane_closed_loop{suffix}.manifest.json"):
+        main(args.scenarios, args.controller)

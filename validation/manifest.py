@@ -3,12 +3,15 @@
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import json
 import os
 import platform
 import subprocess
 import sys
+import time
+from collections.abc import Iterator
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -59,6 +62,17 @@ def manifest(settings: dict[str, Any], wall_time_s: float, command: list[str] | 
     `started` (`start()` when the work began; now if not given)."""
     return {"command": " ".join(command if command is not None else ["uvms", *sys.argv[1:]]),
             **(started or start()), "wall_time_s": wall_time_s, "host": host(), "settings": settings}
+
+
+@contextlib.contextmanager
+def recorded(path: Path, settings: dict[str, Any] | None = None) -> Iterator[None]:
+    """Write a benchmark's manifest to `path` when the block ends without error (command: the
+    script and its arguments; commit and date: at the start)."""
+    origin, t0 = start(), time.perf_counter()
+    yield
+    command = [Path(sys.argv[0]).name if sys.argv[0].endswith(".py") else sys.argv[0], *sys.argv[1:]]
+    Path(path).write_text(json.dumps(manifest(settings or {}, time.perf_counter() - t0, ["python", *command],
+                                              origin), indent=1, default=str))
 
 
 def write(folder: Path, settings: dict[str, Any], wall_time_s: float, command: list[str] | None = None,
