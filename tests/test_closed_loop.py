@@ -349,3 +349,14 @@ def test_a_controller_returning_garbage_is_stopped_in_one_line() -> None:
     with pytest.raises(ValueError, match="allowed") as err:
         run(replace(get("avoid-wall"), duration=0.2), controller=_Garbage(), mismatch=NONE)
     assert "_Garbage" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_scene_without_a_plane_named_wall_runs() -> None:
+    """The worked yawed-wall example with its wall renamed: the loop reports the scene's first plane
+    in place of "wall" (the distances it records are that plane's; MuJoCo's distance at the start
+    equals the scenario's 1 m gap of the hull front, its closed form)."""
+    sc = get("wall-yawed-cross-current").with_overrides({"scene.planes.0.name": "slope", "initial.plane": "slope",
+                                                         "task.plane": "slope", "duration": "0.2"})
+    s = run(sc, controller="mode1-only", mismatch=NONE)
+    assert s.verdict == "success" and "slope" in s.min_distance["hull_geom"]
+    assert 0.9 < s.min_distance["hull_geom"]["slope"] <= 1.0 + 1e-6

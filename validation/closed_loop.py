@@ -44,7 +44,7 @@ from uvms_mj.build import HULL
 from uvms_mj.plant import Plant
 from validation import manifest, presets
 from validation import mismatch as mismatches
-from validation.observers import ContactTally, Observer, Telemetry, Video
+from validation.observers import ContactTally, Observer, Telemetry, Video, main_plane
 from validation.scenarios import Scenario
 from validation.setup import build_plant, initial_state, max_thrust_along, reference, wall_x  # noqa: F401
 from validation.summary import ModeTiming, StepRecord, Summary
@@ -281,7 +281,7 @@ def _summarize(sc: Scenario, resolved: presets.Resolved, mismatch: str, seed: in
         per_mode[m] = ModeTiming(len(times), float(np.median(times)), float(np.percentile(times, 95)),
                                  float(np.max(times)))
     c = tally.totals()
-    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    wall = main_plane(scene.planes)
     hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
     outcome, reason = judge(c.hull_impulse, c.hull_peak, c.link_impulse, c.tip_peak, params.arm.tip_force_limit)
     overruns = 0 if spec.seconds in (None, 0.0) else sum(s.compute_time > spec.seconds for s in steps)

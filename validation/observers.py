@@ -3,6 +3,7 @@ plant steps (its report, the step's info, the input applied) and closes at the e
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -10,8 +11,14 @@ from typing import Protocol
 import numpy as np
 
 from controller.protocol import StepInfo, label
+from uvms.scene import Plane
 from uvms_mj.build import HULL, TIP_GEOM
 from uvms_mj.plant import Plant, PlantReport
+
+
+def main_plane(planes: Sequence[Plane], name: str = "wall") -> int:
+    """The index of the plane called `name`, else 0 (the scene's first plane)."""
+    return next((i for i, p in enumerate(planes) if p.name == name), 0)
 
 
 class Observer(Protocol):
@@ -65,9 +72,10 @@ class Telemetry:
     KEYS = ("t", "u", "h", "hull_distance", "link_distance", "tip_distance", "tip_force", "mode")
 
     def __init__(self, plant: Plant, plane: str = "wall"):
-        """`plane`: the name of the plane whose distances are recorded."""
+        """`plane`: the name of the plane whose distances are recorded (the scene's first plane when
+        it has none of that name)."""
         names = plant.geom_names
-        self.plane = next(i for i, p in enumerate(plant.scene.planes) if p.name == plane)
+        self.plane = main_plane(plant.scene.planes, plane)
         self.hull = [i for i, g in enumerate(names) if g.startswith(HULL)]
         self.tip = names.index(TIP_GEOM) if TIP_GEOM in names else None
         self.links = [i for i in range(len(names)) if i not in self.hull and i != self.tip]

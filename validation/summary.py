@@ -58,7 +58,8 @@ class Summary:
     hull_peak_contact_force: float
     ee_peak_contact_force: float  # the end-effector tip's peak normal force
     link_contact_impulse: float  # arm links other than the tip
-    max_total_thrust_along_wall_normal: float  # the thrusters' best total push away from the wall
+    max_total_thrust_along_wall_normal: float  # the thrusters' best total push away from the wall (the plane
+    # named "wall", else the scene's first)
     final_task_error: float  # position error at the end
     final_joint_angles: list[float]
     solve_time: dict[str, ModeTiming]  # per mode
