@@ -29,12 +29,11 @@ def _git(*args: str) -> str:
 
 
 def _cpu() -> str:
-    try:
+    """The CPU's model name (/proc/cpuinfo where it exists, else what platform knows)."""
+    with contextlib.suppress(OSError):
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
                 return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
     return platform.processor() or platform.machine()
 
 

@@ -66,6 +66,7 @@ like a file.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import tomllib
 from collections.abc import Iterator, Mapping
@@ -582,7 +583,7 @@ def _dump(sc: Scenario) -> dict[str, Any]:
 def _value(key: str, spec: Any, text: str) -> Any:
     """The TOML value of an override's text for a schema leaf, or a one-line error."""
     text = text.strip()
-    try:
+    with contextlib.suppress(ValueError, KeyError):  # malformed: the one-line error below
         if isinstance(spec, _Q):
             if len(spec.shape) == 2:
                 value: Any = [[float(x) for x in row.split(",")] for row in text.split(";")]
@@ -600,8 +601,6 @@ def _value(key: str, spec: Any, text: str) -> Any:
         if spec == _BOOL:
             return {"true": True, "false": False}[text.lower()]
         return text
-    except (ValueError, KeyError):
-        pass
     if isinstance(spec, _Q):
         kind = ("rows of 3 comma-separated numbers separated by ';'" if len(spec.shape) == 2 else
                 "comma-separated numbers" if spec.shape else "a number")
