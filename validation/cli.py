@@ -9,8 +9,12 @@
                                                    run one in closed loop against MuJoCo
   uvms view FILE.rrd                               open a recording in the Rerun viewer
   uvms campaign [--scenarios A,B] [--controllers C,D] [--ctl key=value ...] [--mismatch M]
-               [--seeds N] [--first-seed K] [--workers K] [--out DIR] [--latency L]
-                                                   run many, with a progress bar and a results table
+               [--seeds N] [--first-seed K] [--workers K | --cluster ADDRESS] [--out DIR] [--latency L]
+               [--timeout SECONDS] [--resume]
+                                                   run many, each row written as it finishes, with a
+                                                   progress bar, intervals and paired tests at the end
+  uvms compare A B                                 two campaigns' folders on the same runs: rates and
+                                                   the exact McNemar test
 """
 
 from __future__ import annotations
@@ -107,8 +111,17 @@ def main(argv: list[str] | None = None) -> int:
                       help="comma-separated names (default: all but those tagged kane)")
     camp.add_argument("--controllers", default="switching,mode1-only,braking",
                       help="comma-separated presets or package.module:Class")
-    camp.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
-    camp.add_argument("--out", type=Path, default=Path("out/campaign"), help="folder for results.csv and .md")
+    camp.add_argument("--workers", type=int, default=2, help="runs at once on this machine (default 2)")
+    camp.add_argument("--cluster", metavar="ADDRESS", help="a Dask scheduler's address (tcp://host:8786) to run on "
+                      "instead, or local:N for a Dask cluster of N workers on this machine")
+    camp.add_argument("--out", type=Path, default=Path("out/campaign"),
+                      help="folder for results.csv, results.md, success.png, runs/ (default: out/campaign)")
+    camp.add_argument("--resume", action="store_true", help="finish the campaign in --out: run only what has no row")
+    camp.add_argument("--timeout", type=float, metavar="SECONDS", help="stop a run after this long and record it "
+                      "as timeout (default: none)")
+    cmp = sub.add_parser("compare", help="compare two campaigns' result folders on the same runs")
+    cmp.add_argument("a", type=Path)
+    cmp.add_argument("b", type=Path)
     camp.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every scenario")
     camp.add_argument("--mismatch", default="default", help='as for run: "default", "none" or terms')
     camp.add_argument("--seeds", type=int, default=1, help="mismatch draws per scenario (seeds K..K+N-1)")
@@ -159,16 +172,17 @@ def main(argv: list[str] | None = None) -> int:
                 presets.resolve(c, ctl)  # an unknown name or setting fails here, in one line
             overrides = _overrides(args.set)
             scenarios = [get(n).with_overrides(overrides) for n in args.scenarios.split(",") if n]
-            from validation import precompile
-            from validation.closed_loop import make_folders, parse_latency
-            parse_latency(args.latency)
-            spec = _mismatch(args.mismatch)
-            make_folders(args.out)
-            precompile.build(scenarios, controllers, ctl, args.workers)
-            rows = campaign(scenarios, controllers, args.workers, args.out, spec, args.seeds,
-                            args.first_seed, args.latency, ctl)
-            print(Path(args.out / "results.md").read_text())
-            return 0 if all(r.get("verdict") != "error" for r in rows) else 1
+            from validation import report
+            rows = campaign(scenarios, controllers, args.workers, args.out, _mismatch(args.mismatch), args.seeds,
+                            args.first_seed, args.latency, ctl, cluster=args.cluster, resume=args.resume,
+                            timeout=args.timeout)
+            print(report.statistics_text(rows))
+            print(f"wrote {args.out}/results.csv (a row per run), results.md, success.png, runs/*/summary.json")
+            return 0 if all(r.get("verdict") not in ("error", "timeout", "worker died") for r in rows) else 1
+        if args.command == "compare":
+            from validation import report
+            print(report.compare(args.a, args.b))
+            return 0
         scenario = get(args.scenario).with_overrides(_overrides(args.set))
         from validation import precompile, presets
         from validation.closed_loop import make_folders, parse_latency

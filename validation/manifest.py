@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("casadi", "mujoco", "numpy", "dm-control", "rerun-sdk")
+PACKAGES = ("casadi", "mujoco", "numpy", "dm-control", "rerun-sdk", "distributed")
 
 
 def _git(*args: str) -> str:

@@ -1,0 +1,169 @@
+"""What a campaign's rows say: per scenario family and controller the success rate with its 95%
+Wilson interval (a markdown table and a figure), the paired counts and exact McNemar test of two
+controllers on the same runs, and the whole-step times per mode. `uvms compare A B` reads two
+result folders the same way."""
+
+from __future__ import annotations
+
+import statistics
+from collections.abc import Sequence
+from itertools import combinations
+from pathlib import Path
+from typing import Any
+
+from validation.statistics import Paired, paired, wilson
+
+MODES = ("I", "II", "III")
+SUCCESS = "success"
+COLUMNS = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
+           "ee_peak_contact_force", "link_contact_impulse", "fallbacks", "switches")
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, str):
+        try:
+            v = int(v) if v.lstrip("-").isdigit() else float(v)
+        except ValueError:
+            return v
+    return f"{v:.3f}" if isinstance(v, float) else str(v)
+
+
+def _ok(r: dict[str, Any]) -> bool:
+    return r.get("verdict") == SUCCESS
+
+
+def rate(rows: Sequence[dict[str, Any]]) -> tuple[int, int, float, float]:
+    """Successes, runs and the 95% Wilson interval of the rate."""
+    k, n = sum(map(_ok, rows)), len(rows)
+    return (k, n, *wilson(k, n))
+
+
+def _rate_text(rows: Sequence[dict[str, Any]]) -> str:
+    k, n, lo, hi = rate(rows)
+    return f"{k}/{n} ({100 * lo:.0f}-{100 * hi:.0f}%)" if n else "-"
+
+
+def _names(rows: Sequence[dict[str, Any]], field: str) -> list[str]:
+    return list(dict.fromkeys(str(r[field]) for r in rows))
+
+
+def pair(rows_a: Sequence[dict[str, Any]], rows_b: Sequence[dict[str, Any]]) -> Paired:
+    """Paired counts of two sets of rows on the runs (scenario, seed) they share."""
+    a, b = ({(str(r["scenario"]), int(r["seed"])): _ok(r) for r in rows} for rows in (rows_a, rows_b))
+    return paired(a, b)
+
+
+def _paired_line(a: str, b: str, p: Paired) -> str:
+    return f"- {a} vs {b}: {p.both} / {p.only_a} / {p.only_b} / {p.neither}; {p.reading(a, b)}"
+
+
+PAIRED_HEAD = ("Paired on the same runs (scenario, seed): both succeed / only the first / only the second / "
+               "neither, and the exact McNemar test:")
+
+
+def statistics_text(rows: Sequence[dict[str, Any]]) -> str:
+    """The rates per family and controller, and the paired tests of every two controllers."""
+    controllers, families = _names(rows, "controller"), _names(rows, "scenario")
+    lines = ["Success (only the end-effector tip touched: zero contact impulse on the hull and on every other arm "
+             "link, and the tip's peak force within the jaws' limit) per scenario family, with the 95% Wilson "
+             "interval of the rate:", "",
+             "| scenario | " + " | ".join(controllers) + " |", "|" + "---|" * (len(controllers) + 1)]
+    lines += [f"| {f} | " + " | ".join(_rate_text([r for r in rows if r["scenario"] == f and r["controller"] == c])
+                                       for c in controllers) + " |" for f in families]
+    lines += ["| all | " + " | ".join(_rate_text([r for r in rows if r["controller"] == c]) for c in controllers)
+              + " |"]
+    failures = [r for r in rows if r.get("verdict") in ("error", "timeout", "worker died")]
+    if failures:
+        lines += ["", f"{len(failures)} runs did not finish (error, timeout or worker died); they count as "
+                  "failures above."]
+    if len(controllers) > 1:
+        lines += ["", PAIRED_HEAD, ""]
+        for a, b in combinations(controllers, 2):
+            p = pair([r for r in rows if r["controller"] == a], [r for r in rows if r["controller"] == b])
+            lines.append(_paired_line(a, b, p))
+    return "\n".join(lines) + "\n"
+
+
+def markdown(rows: Sequence[dict[str, Any]]) -> str:
+    """results.md: the delay, every run's row, the statistics and the step times."""
+    controllers = _names(rows, "controller")
+    delays = sorted({str(r.get("latency", "none")) for r in rows} - {"none", ""})
+    lines = [f"Computation delay: {', '.join(delays)} (validation.closed_loop: the plant does not wait for the "
+             "controller).", ""] if delays else []
+    lines += ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines += ["| " + " | ".join(_fmt(r.get(c, "")) for c in COLUMNS) + " |" for r in rows]
+    lines += ["", statistics_text(rows).rstrip("\n")]
+
+    def p95(c: str, m: str) -> str:
+        ms = [float(r[f"step_p95_{m}_ms"]) for r in rows if r["controller"] == c and r.get(f"step_p95_{m}_ms") not in
+              (None, "")]
+        return f"{statistics.median(ms):.0f} ({max(ms):.0f})" if ms else "-"
+
+    lines += ["", "Whole-step time per mode (certificate, guesses, solve), each run's p95 [ms]: the median over the "
+              "runs (the largest):", "", "| mode | " + " | ".join(controllers) + " |",
+              "|" + "---|" * (len(controllers) + 1)]
+    lines += [f"| {m} | " + " | ".join(p95(c, m) for c in controllers) + " |" for m in MODES]
+    return "\n".join(lines) + "\n"
+
+
+def plot(rows: Sequence[dict[str, Any]], path: Path) -> Path:
+    """success.png: the success rate per scenario family, one colour per controller, with the 95%
+    Wilson interval as error bars."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    controllers, families = _names(rows, "controller"), _names(rows, "scenario")
+    width = 0.8 / max(1, len(controllers))
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.1 * len(families) + 2), 4.0))
+    x = np.arange(len(families))
+    for i, c in enumerate(controllers):
+        stats = [rate([r for r in rows if r["scenario"] == f and r["controller"] == c]) for f in families]
+        k, n, lo, hi = (np.array(v, dtype=float) for v in zip(*stats, strict=True))
+        p = np.divide(k, n, out=np.full_like(k, np.nan), where=n > 0)
+        ax.bar(x + (i - (len(controllers) - 1) / 2) * width, p, width, label=c,
+               yerr=np.vstack([np.nan_to_num(p - lo), np.nan_to_num(hi - p)]), capsize=3)
+    ax.set_xticks(x, families, rotation=30, ha="right")
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("success rate (95% Wilson interval)")
+    ax.legend(fontsize="small", loc="lower left")
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def compare(folder_a: Path, folder_b: Path) -> str:
+    """Two result folders on the same scenarios and seeds: each one's rates, and the paired test.
+    Folders of one controller each are paired with each other; otherwise each controller present
+    in both is paired with its namesake."""
+    from validation.results import read_rows
+
+    rows_a, rows_b = read_rows(folder_a), read_rows(folder_b)
+    for folder, rows in ((folder_a, rows_a), (folder_b, rows_b)):
+        if not rows:
+            raise ValueError(f"{folder} holds no results.csv rows; allowed: the --out folder of a uvms campaign")
+    ca, cb = _names(rows_a, "controller"), _names(rows_b, "controller")
+    if len(ca) == 1 and len(cb) == 1:
+        pairs = [(ca[0], cb[0])]
+    else:
+        pairs = [(c, c) for c in ca if c in cb]
+        if not pairs:
+            raise ValueError(f"{folder_a} ({', '.join(ca)}) and {folder_b} ({', '.join(cb)}) share no controller; "
+                             "allowed: folders of one controller each, or with controllers of the same name")
+    name_a, name_b = Path(folder_a).name or str(folder_a), Path(folder_b).name or str(folder_b)
+    lines = []
+    for a, b in pairs:
+        sel_a = [{**r, "controller": f"{name_a}: {a}"} for r in rows_a if r["controller"] == a]
+        sel_b = [{**r, "controller": f"{name_b}: {b}"} for r in rows_b if r["controller"] == b]
+        runs_a, runs_b = ({(r["scenario"], r["seed"]) for r in s} for s in (sel_a, sel_b))
+        lines += [statistics_text([*sel_a, *sel_b]).rstrip("\n")]
+        unpaired = len(runs_a ^ runs_b)
+        if unpaired:
+            lines += ["", f"{len(runs_a - runs_b)} runs of {name_a} and {len(runs_b - runs_a)} of {name_b} have no "
+                      "partner on the same scenario and seed; the paired test leaves them out."]
+        lines.append("")
+    return "\n".join(lines)
