@@ -33,6 +33,8 @@ TIMEOUT = "timeout"
 DIED = "worker died"
 RUNS_PER_CHILD = 25  # a fresh child after this many jobs bounds what a leak in a native library can grow to
 _HEADER = struct.Struct("<Q")  # the byte length of the frame that follows
+READY = b"ready"  # the child's first frame: its imports are done
+STARTUP_S = 300.0  # the longest a child may take to import the testbed (a cold, loaded machine)
 
 
 @dataclass(frozen=True)
@@ -60,7 +62,7 @@ class Child:
         self.stderr = tempfile.TemporaryFile()
         self.proc = subprocess.Popen([sys.executable, "-m", "validation.isolated"], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=self.stderr)
-        self.jobs = 0
+        self.jobs, self.ready = 0, False
 
     def alive(self) -> bool:
         return self.proc.poll() is None
@@ -83,6 +85,14 @@ class Child:
         return b"".join(chunks)
 
     def ask(self, kind: str, payload: Any, timeout: float | None) -> Outcome:
+        if not self.ready:  # the child's imports are not the job's time
+            header = self._read(_HEADER.size, time.monotonic() + STARTUP_S)
+            if header is None:
+                self.kill()
+                return Outcome(None, DIED, f"{DIED}: not started within {STARTUP_S:g} s", 0.0)
+            if not header or self._read(_HEADER.unpack(header)[0], None) != READY:
+                return Outcome(None, DIED, self._cause(), 0.0)
+            self.ready = True
         t0 = time.monotonic()
         self.jobs += 1
         deadline = None if timeout is None else t0 + timeout
@@ -181,6 +191,10 @@ def _serve() -> None:
     threading.Thread(target=_orphan_watch, args=(os.getppid(),), daemon=True).start()
     requests, answers = sys.stdin.buffer, os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)  # whatever the work prints goes to stderr; stdout carries the answers alone
+    import validation.campaign
+    import validation.closed_loop  # noqa: F401  (the heavy imports, before the first job's clock starts)
+    answers.write(_HEADER.pack(len(READY)) + READY)
+    answers.flush()
     while header := requests.read(_HEADER.size):
         kind, payload = pickle.loads(requests.read(_HEADER.unpack(header)[0]))
         if kind == "run":

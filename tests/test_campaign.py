@@ -1,0 +1,170 @@
+"""Campaigns lose nothing and decide: rows written as runs finish, a resume after SIGKILL that runs
+every run exactly once, a dying worker or a run past its timeout recorded as that run's failure,
+the same rows on a Dask cluster as on the local pool, and the paired test of two result folders."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import psutil
+import pytest
+
+from validation import results
+from validation.campaign import campaign
+from validation.cli import main
+from validation.mismatch import DEFAULT
+from validation.scenarios import get
+from validation.summary import Summary
+
+ROOT = Path(__file__).resolve().parent.parent
+PD = "examples.pd_station_keeper:PDStationKeeper"
+SHORT = replace(get("avoid-wall"), duration=0.3)  # s: a run of a few steps
+
+
+def _keys(rows: list[dict]) -> list[results.Key]:
+    return [results.key(r) for r in rows]
+
+
+def _without_timings(row: dict) -> dict:
+    return {k: v for k, v in row.items() if k not in results.TIMING_FIELDS}
+
+
+def test_dying_workers_are_recorded_and_every_other_run_is_unchanged(tmp_path) -> None:
+    """Two controllers that take their process down (a segfault; SIGKILL, as the OOM killer sends it)
+    run beside the PD example and the braking baseline. Each crashing run is its own row, "worker
+    died" with the signal; every other row equals, timings aside, the same runs in a campaign without
+    the crashers (the oracle: the crash costs nobody else anything); each good run has its summary."""
+    crashers = ["tests.crashing_controllers:Segfaulting", "tests.crashing_controllers:Killed"]
+    rows = campaign([SHORT], [PD, crashers[0], "braking", crashers[1]], workers=2, out=tmp_path / "with", seeds=2)
+    alone = campaign([SHORT], [PD, "braking"], workers=2, out=tmp_path / "alone", seeds=2)
+    assert sorted(_keys(rows)) == sorted({*_keys(rows)})  # every run once
+    died = {r["controller"]: r for r in rows if r["verdict"] == "worker died"}
+    assert set(died) == set(crashers) and len([r for r in rows if r["verdict"] == "worker died"]) == 4
+    assert "SIGSEGV" in died[crashers[0]]["reason"] and "SIGKILL" in died[crashers[1]]["reason"]
+    good = [_without_timings(r) for r in rows if r["controller"] not in crashers]
+    assert good == [_without_timings(r) for r in alone]
+    for r in rows:
+        path = results.summary_path(tmp_path / "with", results.key(r))
+        assert path.is_file() == (r["controller"] not in crashers)
+        if path.is_file():
+            assert Summary.read(path).verdict == r["verdict"]
+    assert (tmp_path / "with" / "success.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_run_past_its_timeout_is_stopped_and_recorded(tmp_path) -> None:
+    """A controller whose step never returns, with a 10 s timeout (a few-step run of the others takes
+    well under a second once its process has imported the testbed, which the timeout does not
+    count): its row is "timeout", the braking run beside it succeeds."""
+    rows = campaign([SHORT], ["tests.crashing_controllers:Hanging", "braking"], workers=2, out=tmp_path, timeout=10)
+    by = {r["controller"]: r for r in rows}
+    assert by["tests.crashing_controllers:Hanging"]["verdict"] == "timeout"
+    assert "10 s" in by["tests.crashing_controllers:Hanging"]["reason"]
+    assert by["braking"]["verdict"] == "success"
+
+
+def test_a_campaign_killed_halfway_resumes_with_every_run_exactly_once(tmp_path) -> None:
+    """`uvms campaign` of 16 runs is sent SIGKILL once 5 rows are on disk; a line cut short is added as
+    a kill in mid-write would leave it; `--resume` then finishes. Every run has exactly one row and a
+    summary whose verdict is the row's; the killed campaign's run processes exit on their own."""
+    out = tmp_path / "c"
+    argv = ["campaign", "--scenarios", "avoid-wall", "--set", "duration=0.3", "--controllers", f"braking,{PD}",
+            "--seeds", "8", "--workers", "2", "--out", str(out)]
+    proc = subprocess.Popen([sys.executable, "-m", "validation.cli", *argv], cwd=ROOT, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline, children = time.monotonic() + 300, set()
+    while len(results.read_rows(out)) < 5:
+        assert proc.poll() is None and time.monotonic() < deadline, "the campaign ended before 5 rows"
+        children |= {c.pid for c in psutil.Process(proc.pid).children() if "validation.isolated" in " ".join(
+            c.cmdline())}
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    kept = results.read_rows(out)
+    assert 5 <= len(kept) < 16
+    with (out / results.CSV).open("a") as fh:
+        fh.write("avoid-wall,braking,7,succ")  # the cut line of a run that is not done
+    gone = time.monotonic() + 10
+    while any(psutil.pid_exists(p) and psutil.Process(p).status() != psutil.STATUS_ZOMBIE for p in children):
+        assert time.monotonic() < gone, "a run process outlived its killed campaign by 10 s"
+        time.sleep(0.2)
+    assert main([*argv, "--resume"]) == 0
+    rows = results.read_rows(out)
+    expected = {("avoid-wall", c, s) for c in ("braking", PD) for s in range(8)}
+    assert sorted(_keys(rows)) == sorted(expected)  # each exactly once
+    assert all(r in rows for r in kept)  # the rows from before the kill are kept as they were
+    for r in rows:
+        assert Summary.read(results.summary_path(out, results.key(r))).verdict == r["verdict"]
+    assert json.loads((out / "manifest.json").read_text())["settings"]["runs_done_before"] == len(kept)
+
+
+def test_resume_refuses_another_campaign_and_a_new_one_refuses_old_results(tmp_path) -> None:
+    """A folder holds one campaign: a fresh start into it, or a resume with other settings, is one
+    line naming what differs and what is allowed (no run starts)."""
+    campaign([SHORT], ["braking"], workers=1, out=tmp_path)
+    with pytest.raises(ValueError, match="already holds a campaign's results; allowed: --resume"):
+        campaign([SHORT], ["braking"], workers=1, out=tmp_path)
+    with pytest.raises(ValueError, match="other mismatch, seeds; allowed"):
+        campaign([SHORT], ["braking"], workers=1, out=tmp_path, mismatch=DEFAULT, seeds=2, resume=True)
+    with pytest.raises(ValueError, match="holds no campaign"):
+        campaign([SHORT], ["braking"], workers=1, out=tmp_path / "empty", resume=True)
+
+
+@pytest.mark.slow
+def test_a_dask_cluster_gives_the_local_pools_rows(tmp_path) -> None:
+    """A real Dask LocalCluster of 2 worker processes, reached through its address like any cluster,
+    runs wall-headon (Mode I, II and III of the switching NMPC) and avoid-wall with the switching
+    NMPC and the braking baseline on two seeds of the default mismatch: every row and every summary
+    equals, timings aside, the local pool's on the same seeds (runs are deterministic given their
+    data, whichever process or host runs them)."""
+    from distributed import LocalCluster
+
+    scenarios = [replace(get("wall-headon"), duration=2.0), replace(get("avoid-wall"), duration=1.0)]
+    kw = {"controllers": ["switching", "braking"], "workers": 2, "mismatch": DEFAULT, "seeds": 2, "first_seed": 7}
+    local = campaign(scenarios, out=tmp_path / "local", **kw)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        dask = campaign(scenarios, out=tmp_path / "dask", cluster=cluster.scheduler_address, **kw)
+    assert [_without_timings(r) for r in dask] == [_without_timings(r) for r in local]
+    assert {r["verdict"] for r in local} <= {"success", "hull contact", "arm contact", "tip overload"}
+    assert any("III" in r["modes"] for r in local)
+    for r in local:
+        a, b = (Summary.read(results.summary_path(tmp_path / f, results.key(r))) for f in ("local", "dask"))
+        assert a.without_timings() == b.without_timings()
+    engine = json.loads((tmp_path / "dask" / "manifest.json").read_text())["settings"]["engine"]
+    assert engine["engine"] == "dask distributed" and engine["workers"] == 2
+
+
+def _folder(path: Path, verdicts: dict[tuple[str, int], str], controller: str) -> Path:
+    path.mkdir()
+    with (path / results.CSV).open("w") as fh:
+        fh.write(",".join(results.FIELDS) + "\n")
+        for (scenario, seed), v in verdicts.items():
+            row = {f: "" for f in results.FIELDS} | {"scenario": scenario, "controller": controller, "seed": seed,
+                                                     "verdict": v}
+            fh.write(",".join(str(row[f]) for f in results.FIELDS) + "\n")
+    return path
+
+
+def test_compare_gives_the_paired_counts_and_the_exact_mcnemar_p(tmp_path, capsys) -> None:
+    """Two folders on 12 runs: A succeeds on all, B on the first 4; 2 more runs only A has. Paired:
+    4 both, 8 only A, 0 only B; the exact McNemar p is 2 * 0.5**8 = 0.0078 (closed form), read as
+    "A is better"; the unpaired runs are named. Then 3 against 3 discordant: within noise."""
+    runs = [("wall-headon", s) for s in range(6)] + [("wall-oblique", s) for s in range(6)]
+    a = _folder(tmp_path / "A", {**dict.fromkeys(runs, "success"), ("extra", 0): "success", ("extra", 1): "success"},
+                "switching")
+    b = _folder(tmp_path / "B", {r: "success" if i < 4 else "hull contact" for i, r in enumerate(runs)}, "mode1-only")
+    assert main(["compare", str(a), str(b)]) == 0
+    text = capsys.readouterr().out
+    assert "4 / 8 / 0 / 0" in text and "p = 0.0078" in text and "A: switching is better" in text
+    assert "2 runs of A and 0 of B have no partner" in text
+    c = _folder(tmp_path / "C", {r: "success" if i < 9 else "hull contact" for i, r in enumerate(runs)}, "x")
+    d = _folder(tmp_path / "D", {r: "success" if (i < 6 or i >= 9) else "hull contact" for i, r in enumerate(runs)},
+                "y")
+    assert main(["compare", str(c), str(d)]) == 0
+    assert "within noise (p = 1)" in capsys.readouterr().out
