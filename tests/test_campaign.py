@@ -72,7 +72,8 @@ def test_a_run_past_its_timeout_is_stopped_and_recorded(tmp_path) -> None:
 def test_a_campaign_killed_halfway_resumes_with_every_run_exactly_once(tmp_path) -> None:
     """`uvms campaign` of 16 runs is sent SIGKILL once 5 rows are on disk; a line cut short is added as
     a kill in mid-write would leave it; `--resume` then finishes. Every run has exactly one row and a
-    summary whose verdict is the row's; the killed campaign's run processes exit on their own."""
+    summary whose verdict is the row's; the killed campaign's run processes exit on their own; its
+    manifest (written at the start) is kept in the resumed one's."""
     out = tmp_path / "c"
     argv = ["campaign", "--scenarios", "avoid-wall", "--set", "duration=0.3", "--controllers", f"braking,{PD}",
             "--seeds", "8", "--workers", "2", "--out", str(out)]
@@ -88,6 +89,7 @@ def test_a_campaign_killed_halfway_resumes_with_every_run_exactly_once(tmp_path)
     proc.wait()
     kept = results.read_rows(out)
     assert 5 <= len(kept) < 16
+    assert json.loads((out / "manifest.json").read_text())["settings"]["status"] == "running"  # kept by the kill
     with (out / results.CSV).open("a") as fh:
         fh.write("avoid-wall,braking,7,succ")  # the cut line of a run that is not done
     gone = time.monotonic() + 10
@@ -101,7 +103,9 @@ def test_a_campaign_killed_halfway_resumes_with_every_run_exactly_once(tmp_path)
     assert all(r in rows for r in kept)  # the rows from before the kill are kept as they were
     for r in rows:
         assert Summary.read(results.summary_path(out, results.key(r))).verdict == r["verdict"]
-    assert json.loads((out / "manifest.json").read_text())["settings"]["runs_done_before"] == len(kept)
+    done = json.loads((out / "manifest.json").read_text())
+    assert done["settings"]["runs_done_before"] == len(kept) and done["settings"]["status"] == "finished"
+    assert done["settings"]["earlier"]["settings"]["status"] == "running" and done["wall_time_s"] > 0
 
 
 def test_resume_refuses_another_campaign_and_a_new_one_refuses_old_results(tmp_path) -> None:
@@ -168,3 +172,15 @@ def test_compare_gives_the_paired_counts_and_the_exact_mcnemar_p(tmp_path, capsy
                 "y")
     assert main(["compare", str(c), str(d)]) == 0
     assert "within noise (p = 1)" in capsys.readouterr().out
+
+
+def test_the_success_plot_draws_rates_of_none_and_all(tmp_path) -> None:
+    """Families at 0/3 and 3/3 (where the Wilson bounds meet the rate up to rounding) plot without
+    error, as a PNG."""
+    from validation import report
+
+    rows = [{"scenario": f, "controller": "c", "seed": s, "verdict": v} for f, v in (("none", "hull contact"),
+                                                                                   ("all", "success"))
+            for s in range(3)]
+    path = report.plot(rows, tmp_path / "success.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

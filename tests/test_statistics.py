@@ -30,3 +30,10 @@ def test_paired_counts_only_shared_runs() -> None:
     p = paired(a, b)
     assert (p.both, p.only_a, p.only_b, p.neither) == (1, 1, 1, 1)
     assert "within noise" in p.reading("A", "B")
+
+
+@pytest.mark.parametrize("n", [1, 3, 25, 200])
+def test_wilson_bounds_are_exact_at_none_and_all(n: int) -> None:
+    """Closed form: the interval of 0/n starts at 0 and that of n/n ends at 1, exactly (the rate's
+    error bars are then never negative)."""
+    assert wilson(0, n)[0] == 0.0 and wilson(n, n)[1] == 1.0

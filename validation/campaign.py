@@ -236,6 +236,11 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
     before = len(store.done & {j.key for j in jobs})
     todo = [j for j in jobs if j.key not in store.done]
     started, origin, old_manifest = time.perf_counter(), manifest.start(), _read(Path(out) / "manifest.json")
+    settings = {**what, "timeout_s": timeout, "runs": len(jobs), "runs_done_before": before,
+                "controller_settings": _resolved(controllers, ctl)}
+    if resume and old_manifest:
+        settings["earlier"] = old_manifest
+    manifest.write(Path(out), {**settings, "status": "running"}, None, started=origin)  # a killed campaign keeps it
     eng = engine(workers, cluster)
     try:
         if todo:
@@ -252,11 +257,8 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
     rows = results.ordered(list(store.rows()), [j.key for j in jobs])
     (Path(out) / "results.md").write_text(report.markdown(rows))
     report.plot(rows, Path(out) / "success.png")
-    settings = {**what, "engine": where, "timeout_s": timeout, "runs": len(jobs), "runs_done_before": before,
-                "controller_settings": _resolved(controllers, ctl)}
-    if resume and old_manifest:
-        settings["earlier"] = old_manifest
-    manifest.write(Path(out), settings, time.perf_counter() - started, started=origin)
+    manifest.write(Path(out), {**settings, "engine": where, "status": "finished"}, time.perf_counter() - started,
+                   started=origin)
     return rows
 
 

@@ -55,10 +55,10 @@ def start() -> dict[str, Any]:
             "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")}
 
 
-def manifest(settings: dict[str, Any], wall_time_s: float, command: list[str] | None = None,
+def manifest(settings: dict[str, Any], wall_time_s: float | None, command: list[str] | None = None,
              started: dict[str, Any] | None = None) -> dict[str, Any]:
     """The manifest of a result made with `settings` (resolved, plain data) in `wall_time_s`, from
-    `started` (`start()` when the work began; now if not given)."""
+    `started` (`start()` when the work began; now if not given); wall_time_s None: still running."""
     return {"command": " ".join(command if command is not None else ["uvms", *sys.argv[1:]]),
             **(started or start()), "wall_time_s": wall_time_s, "host": host(), "settings": settings}
 
@@ -74,7 +74,7 @@ def recorded(path: Path, settings: dict[str, Any] | None = None) -> Iterator[Non
                                               origin), indent=1, default=str))
 
 
-def write(folder: Path, settings: dict[str, Any], wall_time_s: float, command: list[str] | None = None,
+def write(folder: Path, settings: dict[str, Any], wall_time_s: float | None, command: list[str] | None = None,
           started: dict[str, Any] | None = None) -> Path:
     path = Path(folder) / "manifest.json"
     path.write_text(json.dumps(manifest(settings, wall_time_s, command, started), indent=1, default=str))

@@ -124,7 +124,7 @@ def plot(rows: Sequence[dict[str, Any]], path: Path) -> Path:
         k, n, lo, hi = (np.array(v, dtype=float) for v in zip(*stats, strict=True))
         p = np.divide(k, n, out=np.full_like(k, np.nan), where=n > 0)
         ax.bar(x + (i - (len(controllers) - 1) / 2) * width, p, width, label=c,
-               yerr=np.vstack([np.nan_to_num(p - lo), np.nan_to_num(hi - p)]), capsize=3)
+               yerr=np.nan_to_num(np.vstack([p - lo, hi - p])), capsize=3)
     ax.set_xticks(x, families, rotation=30, ha="right")
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("success rate (95% Wilson interval)")

@@ -18,7 +18,9 @@ def wilson(successes: int, runs: int, z: float = Z95) -> tuple[float, float]:
     p, n = successes / runs, runs
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return max(0.0, centre - half), min(1.0, centre + half)
+    lo = 0.0 if successes == 0 else max(0.0, centre - half)  # exact at the ends (they are 0 and 1 in closed form)
+    hi = 1.0 if successes == runs else min(1.0, centre + half)
+    return lo, hi
 
 
 @dataclass(frozen=True)
