@@ -32,6 +32,7 @@ bench: $(VENV)/.installed
 	$(PY) bench/mode3_solvers.py --record 2
 	$(PY) bench/min_violation_stop.py --record 2
 	$(PY) bench/min_violation_stop.py
+	$(PY) bench/campaign_throughput.py
 
 assets: $(VENV)/.installed
 	$(PY) -m uvms_mj.export
