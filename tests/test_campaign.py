@@ -184,3 +184,15 @@ def test_the_success_plot_draws_rates_of_none_and_all(tmp_path) -> None:
             for s in range(3)]
     path = report.plot(rows, tmp_path / "success.png")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_compare_reads_an_older_campaigns_fewer_columns(tmp_path, capsys) -> None:
+    """A results.csv of an older campaign (no latency, timing or reason columns) is read for its
+    scenario, controller, seed and verdict: 3 only A against 0 gives p = 2 * 0.5**3 = 0.25."""
+    for name, verdicts in (("A", ["success"] * 3), ("B", ["hull contact"] * 3)):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / results.CSV).write_text("scenario,controller,seed,verdict,modes\n" + "".join(
+            f"wall-headon,{name.lower()},{s},{v},I\n" for s, v in enumerate(verdicts)))
+    assert main(["compare", str(tmp_path / "A"), str(tmp_path / "B")]) == 0
+    out = capsys.readouterr().out
+    assert "0 / 3 / 0 / 0" in out and "p = 0.25" in out
