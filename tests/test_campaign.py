@@ -110,7 +110,8 @@ def test_a_campaign_killed_halfway_resumes_with_every_run_exactly_once(tmp_path)
 
 def test_resume_refuses_another_campaign_and_a_new_one_refuses_old_results(tmp_path) -> None:
     """A folder holds one campaign: a fresh start into it, or a resume with other settings, is one
-    line naming what differs and what is allowed (no run starts)."""
+    line naming what differs and what is allowed (no run starts); a bad cluster address writes
+    nothing."""
     campaign([SHORT], ["braking"], workers=1, out=tmp_path)
     with pytest.raises(ValueError, match="already holds a campaign's results; allowed: --resume"):
         campaign([SHORT], ["braking"], workers=1, out=tmp_path)
@@ -118,6 +119,9 @@ def test_resume_refuses_another_campaign_and_a_new_one_refuses_old_results(tmp_p
         campaign([SHORT], ["braking"], workers=1, out=tmp_path, mismatch=DEFAULT, seeds=2, resume=True)
     with pytest.raises(ValueError, match="holds no campaign"):
         campaign([SHORT], ["braking"], workers=1, out=tmp_path / "empty", resume=True)
+    with pytest.raises(ValueError, match="allowed: local:N with N >= 1"):
+        campaign([SHORT], ["braking"], workers=1, out=tmp_path / "bad-cluster", cluster="local:0")
+    assert not (tmp_path / "bad-cluster").exists()  # so the corrected command can use the folder
 
 
 @pytest.mark.slow

@@ -230,7 +230,13 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
         raise ValueError(f"timeout {timeout}; allowed: a number of seconds > 0")
     seed_list = list(range(first_seed, first_seed + seeds))
     what = plan(scenarios, controllers, mismatch, seed_list, latency, ctl)
-    store = results.Store(out, what, resume)
+    results.check(out, what, resume)
+    eng = engine(workers, cluster)  # a cluster that does not answer fails here, before anything is written
+    try:
+        store = results.Store(out, what, resume)
+    except ValueError:
+        eng.close()
+        raise
     overrides = tuple(sorted((ctl or {}).items()))
     jobs = [Job(s, c, mismatch, seed, latency, overrides) for s in scenarios for seed in seed_list for c in controllers]
     before = len(store.done & {j.key for j in jobs})
@@ -241,7 +247,6 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
     if resume and old_manifest:
         settings["earlier"] = old_manifest
     manifest.write(Path(out), {**settings, "status": "running"}, None, started=origin)  # a killed campaign keeps it
-    eng = engine(workers, cluster)
     try:
         if todo:
             eng.build(scenarios, controllers, dict(ctl or {}))

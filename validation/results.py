@@ -57,28 +57,37 @@ def read_rows(folder: Path) -> list[dict[str, str]]:
     return [r for r in rows if None not in r and None not in r.values() and all(r.get(f) for f in needed)]
 
 
+def check(folder: Path, plan: dict[str, Any], resume: bool) -> None:
+    """Whether `folder` can take this campaign (nothing is written): one line naming what is wrong."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"output path {folder} is a file; allowed: a writable folder")
+    path, plan_path = folder / CSV, folder / PLAN
+    if resume:
+        if not plan_path.is_file():
+            raise ValueError(f"--resume: {folder} holds no campaign ({PLAN} is missing); allowed: the folder of "
+                             "a campaign that was stopped")
+        old = json.loads(plan_path.read_text())
+        if old != plan:
+            diff = sorted(k for k in set(old) | set(plan) if old.get(k) != plan.get(k))
+            raise ValueError(f"--resume: {folder} holds a campaign with other {', '.join(diff)}; allowed: the "
+                             "same campaign's options, or a new --out")
+    elif path.exists() or plan_path.exists():
+        raise ValueError(f"{folder} already holds a campaign's results; allowed: --resume to finish it, or a new "
+                         "--out")
+
+
 class Store:
     """The result folder of one campaign (module docstring)."""
 
     def __init__(self, folder: Path, plan: dict[str, Any], resume: bool):
+        check(folder, plan, resume)
         self.folder = Path(folder)
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as e:
             raise ValueError(f"output path {folder}: {e.strerror}; allowed: a writable folder") from None
-        path, plan_path = self.folder / CSV, self.folder / PLAN
-        if resume:
-            if not plan_path.is_file():
-                raise ValueError(f"--resume: {folder} holds no campaign ({PLAN} is missing); allowed: the folder of "
-                                 "a campaign that was stopped")
-            old = json.loads(plan_path.read_text())
-            if old != plan:
-                diff = sorted(k for k in set(old) | set(plan) if old.get(k) != plan.get(k))
-                raise ValueError(f"--resume: {folder} holds a campaign with other {', '.join(diff)}; allowed: the "
-                                 "same campaign's options, or a new --out")
-        elif path.exists() or plan_path.exists():
-            raise ValueError(f"{folder} already holds a campaign's results; allowed: --resume to finish it, or a new "
-                             "--out")
+        path = self.folder / CSV
         rows = read_rows(self.folder)
         self.done: set[Key] = {key(r) for r in rows}
         self._write_plan(plan)
