@@ -8,13 +8,16 @@ import ctypes
 import os
 import signal
 import time
+from abc import ABC, abstractmethod
 
 import numpy as np
 
 from controller.protocol import StepInfo, Task
 
 
-class _Zero:
+class _Zero(ABC):
+    """Zero input until t = 0.1 s, then `fail`."""
+
     def reset(self, task: Task) -> None:
         self.n = task.params.n_inputs
 
@@ -23,8 +26,8 @@ class _Zero:
             self.fail()
         return np.zeros(self.n), StepInfo(t=t, dt=0.05, mode="zero")
 
-    def fail(self) -> None:
-        raise NotImplementedError
+    @abstractmethod
+    def fail(self) -> None: ...
 
 
 class Segfaulting(_Zero):
