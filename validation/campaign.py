@@ -261,7 +261,8 @@ def campaign(scenarios: Sequence[Scenario], controllers: Sequence[str], workers:
         isolated.stop_all()
     rows = results.ordered(list(store.rows()), [j.key for j in jobs])
     (Path(out) / "results.md").write_text(report.markdown(rows))
-    report.plot(rows, Path(out) / "success.png")
+    if rows:
+        report.plot(rows, Path(out) / "success.png")
     manifest.write(Path(out), {**settings, "engine": where, "status": "finished"}, time.perf_counter() - started,
                    started=origin)
     return rows
