@@ -85,7 +85,7 @@ def main(rounds: int) -> None:
                                                               "peak_memory_mb": memory}, indent=1))
     lines = ["# Campaign throughput and memory", "",
              f"`python bench/campaign_throughput.py --rounds {rounds}`: medians of {rounds} interleaved rounds; "
-             "default mismatch; every run in a process of its own (validation.isolated).", "",
+             "default mismatch; each run in a worker's child process (validation.isolated).", "",
              "| workload | engine | runs | wall [s] | runs / min | run's own time, median [s] | "
              "engine overhead per run [s] | failed |", "|---|---|---|---|---|---|---|---|"]
     for w, per in med.items():

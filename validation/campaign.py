@@ -1,5 +1,6 @@
-"""Campaigns: every scenario with every controller and seed, each run in a fresh process of its own
-(validation.isolated), on this machine's cores or on a Dask cluster, with a progress bar.
+"""Campaigns: every scenario with every controller and seed, each run in a child process apart from the
+campaign's (validation.isolated: one child per worker thread, replaced after a crash, a timeout or 25
+runs), on this machine's cores or on a Dask cluster, with a progress bar.
 
 Each finished run is written at once (validation.results: its summary.json, then its row of
 results.csv, synced), so a killed campaign keeps what it did and `resume=True` runs only what is
@@ -73,7 +74,7 @@ def execute(job: Job) -> dict[str, Any]:
 
 
 def run_isolated(job: Job, timeout: float | None = None) -> dict[str, Any]:
-    """One run in a fresh process (validation.isolated): execute's result, or the row of its timeout
+    """One run in this thread's child process (validation.isolated): execute's result, or the row of its timeout
     or of its process's death."""
     out = isolated.call("run", job, timeout)
     if out.result is not None:
