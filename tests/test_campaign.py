@@ -126,19 +126,20 @@ def test_resume_refuses_another_campaign_and_a_new_one_refuses_old_results(tmp_p
 
 @pytest.mark.slow
 def test_a_dask_cluster_gives_the_local_pools_rows(tmp_path) -> None:
-    """A real Dask LocalCluster of 2 worker processes, reached through its address like any cluster,
-    runs wall-headon (Mode I, II and III of the switching NMPC) and avoid-wall with the switching
-    NMPC and the braking baseline on two seeds of the default mismatch: every row and every summary
-    equals, timings aside, the local pool's on the same seeds (runs are deterministic given their
-    data, whichever process or host runs them)."""
+    """A real Dask LocalCluster of 2 worker processes, reached through `uvms campaign --cluster ADDRESS`
+    like any cluster, runs wall-headon (Mode I, II and III of the switching NMPC) and avoid-wall, 2 s
+    each, with the switching NMPC and the braking baseline on two seeds of the default mismatch:
+    every row and every summary equals, timings aside, the local pool's on the same seeds (runs are
+    deterministic given their data, whichever process or host runs them)."""
     from distributed import LocalCluster
 
-    scenarios = [replace(get("wall-headon"), duration=2.0), replace(get("avoid-wall"), duration=1.0)]
-    kw = {"controllers": ["switching", "braking"], "workers": 2, "mismatch": DEFAULT, "seeds": 2, "first_seed": 7}
-    local = campaign(scenarios, out=tmp_path / "local", **kw)
+    argv = ["campaign", "--scenarios", "wall-headon,avoid-wall", "--set", "duration=2.0", "--controllers",
+            "switching,braking", "--seeds", "2", "--first-seed", "7"]
+    assert main([*argv, "--workers", "2", "--out", str(tmp_path / "local")]) == 0
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        dask = campaign(scenarios, out=tmp_path / "dask", cluster=cluster.scheduler_address, **kw)
-    assert [_without_timings(r) for r in dask] == [_without_timings(r) for r in local]
+        assert main([*argv, "--cluster", cluster.scheduler_address, "--out", str(tmp_path / "dask")]) == 0
+    local, dask = (sorted(results.read_rows(tmp_path / f), key=results.key) for f in ("local", "dask"))
+    assert len(local) == 8 and [_without_timings(r) for r in dask] == [_without_timings(r) for r in local]
     assert {r["verdict"] for r in local} <= {"success", "hull contact", "arm contact", "tip overload"}
     assert any("III" in r["modes"] for r in local)
     for r in local:
