@@ -6,15 +6,16 @@ finds Mode I's feasible set F non-empty; Mode II once it is empty, or once the d
 fires (`deploy_deadline`, not in the paper: waiting longer would leave Mode II no time to put the
 tip on the wall; `_deadline`); Mode III after the Mode II step taken with N_p = 1 (Algorithm 1),
 once the tip is within `contact_tolerance` of the plane (else Mode II afresh); back to Mode I once
-the hull moves away from the contact plane faster than `separation_speed` (the paper: d_0' > 0),
-or as soon as a Mode III step cannot use its solve.
+the hull moves away from the contact plane faster than `separation_speed` (the paper: d_0' > 0)
+and maximum braking from there would keep it off (`release_check`, not in the paper: `_may_release`).
 
 Before each solve the previous plan is shifted by one interval and its states recomputed from the
 measured state by the model's RK4 (the Final Algorithm); Mode III's nodes are put back on the plane
 by Algorithm 2's inverse kinematics. A solve whose status is not usable is not used: the fallback
 (StepInfo.fallback) is the previous plan of the same mode shifted by one interval, else Mode I's
 maximum braking, Mode II's deploy guess, and for Mode III's first solve Mode II afresh (`redeploy`,
-not in the paper) or, without it, maximum braking with the arm held rigid. The rules not in the
+not in the paper) or, without it, maximum braking with the arm held rigid. A failed Mode III solve
+does not end Mode III: the next step solves again from the measured state. The rules not in the
 paper and their evidence: docs/decisions.md.
 """
 
@@ -72,7 +73,8 @@ class SwitchingSettings:
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh (else maximum braking, arm held)
-    separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0)
+    separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
+    release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
@@ -141,7 +143,6 @@ class SwitchingNMPC:
         self._horizon2 = settings.mode2.horizon
         self._last_u = np.zeros(model.n_inputs)
         self._reported_mode = Mode.I
-        self._mode3_fell_back = False  # the last Mode III step could not use its solve
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
 
@@ -222,8 +223,7 @@ class SwitchingNMPC:
             raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
                              f"{self.model.n_states} finite numbers")
         distances, closing = self._geometry(h)
-        if self.mode is Mode.III and self._reported_mode is Mode.III and (
-                self._mode3_fell_back or closing[self.contact, 0] > self.settings.separation_speed):
+        if self.mode is Mode.III and self._reported_mode is Mode.III and self._may_release(h, closing):
             self.mode, self._plan = Mode.I, None
         if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h):
             if closing[self.contact, 0] > self.settings.separation_speed:  # no contact needed: the certificate decides
@@ -302,6 +302,21 @@ class SwitchingNMPC:
         hs, us = self.feasibility.braking_rollout(h, self.current)
         return _ModeStep(us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, certificate=cert)
 
+    def _may_release(self, h: np.ndarray, closing: np.ndarray) -> bool:
+        """Mode III -> I: the hull moves away from the contact plane faster than `separation_speed`
+        and, with `release_check`, the backup that Mode I falls back on, maximum braking with the arm
+        held (the certificate's braking rollout over Mode I's horizon), keeps every body that Mode II
+        protects at least the certificate's margin off every plane: letting go is safe even if Mode
+        I then finds no plan. Without thrusters, or against a current onto the wall, the rollout
+        drifts back and Mode III holds on."""
+        if closing[self.contact, 0] <= self.settings.separation_speed:
+            return False
+        if not self.settings.release_check:
+            return True
+        hs, _ = self.feasibility.braking_rollout(h, self.current)
+        protected = self.ocp2(self.contact).protected_clearance
+        return min(protected(x) for x in hs[1:]) >= self.feasibility.settings.distance_margin
+
     def _short_of_contact(self, h: np.ndarray) -> bool:
         """With `contact_tolerance`: whether the tip is further than that from the contact plane
         after Mode II's last (N_p = 1) step, so that Mode III, which holds it on the plane from its
@@ -368,7 +383,6 @@ class SwitchingNMPC:
             duals = None
         sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
-        self._mode3_fell_back = not sol.status.usable
         if sol.status.usable:
             self._plan, self._recomputed = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp)
             return _ModeStep(sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
@@ -378,7 +392,7 @@ class SwitchingNMPC:
             return _ModeStep(previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
                              previous.h, previous.u, previous.force)
         if self.settings.redeploy:  # a plan that keeps the links off the wall rather than a rigid arm
-            self.mode, self._horizon2, self._mode3_fell_back = Mode.II, self.settings.mode2.horizon, False
+            self.mode, self._horizon2 = Mode.II, self.settings.mode2.horizon
             out = self._step_mode2(h)
             return replace(out, fallback=Fallback.REDEPLOY if out.fallback is Fallback.NONE else out.fallback)
         u = self._hold(h, h[6:6 + self.model.n_joints], self.current)
