@@ -14,7 +14,7 @@ from controller.switching import Fallback, SwitchReason
 from uvms import load_params, load_scene
 from validation.cli import main
 from validation.closed_loop import Outcome, judge, run
-from validation.mismatch import DEFAULT, NONE, draw, parse
+from validation.mismatch import DEFAULT, NONE, WIDE, draw, parse, resolve
 from validation.scenarios import SCENARIOS, get
 from validation.summary import Summary
 
@@ -217,10 +217,24 @@ def test_mismatch_is_parsed_seeded_and_rejected_in_one_line() -> None:
     a, b, c = draw(DEFAULT, 3), draw(DEFAULT, 3), draw(DEFAULT, 4)
     assert a == b and a != c
     assert 0.8 <= a["added_mass"] <= 1.2 and -0.003 <= a["cob"] <= 0.003
-    for bad in ("added_mass*U(0.8)", "mass+U(0,1)", "viscosity*2", "drag*fast"):
+    for bad in ("added_mass*U(0.8)", "mass+U(0,1)", "viscosity*2", "drag*fast", "wider"):
         with pytest.raises(ValueError, match="allowed") as err:
-            parse(bad)
+            resolve(bad)
         assert "\n" not in str(err.value)
+
+
+def test_wide_mismatch_draws_within_its_declared_ranges() -> None:
+    """The named "wide" spec: over 200 seeds every draw lies in its declared range (mass 0.8-1.3,
+    added mass and drag 0.7-1.3, friction coefficient 0.1-0.8, current -0.2 to 0.2 m/s), and the draws
+    span most of each range (a uniform draw's extremes over 200 seeds come within 2 % of its ends with
+    probability above 1 - 2 * 0.98^200 = 0.96; 10 % is asked)."""
+    assert resolve("wide") == WIDE and resolve("default") == DEFAULT and resolve("none") == NONE
+    draws = [draw(WIDE, seed) for seed in range(200)]
+    for name, (lo, hi) in {"mass": (0.8, 1.3), "added_mass": (0.7, 1.3), "drag": (0.7, 1.3),
+                           "friction_coefficient": (0.1, 0.8), "current": (-0.2, 0.2)}.items():
+        values = np.array([d[name] for d in draws])
+        assert lo <= values.min() and values.max() <= hi, name
+        assert values.min() < lo + 0.1 * (hi - lo) and values.max() > hi - 0.1 * (hi - lo), name
 
 
 def test_mismatch_changes_only_the_plant(params, scene) -> None:
@@ -237,6 +251,8 @@ def test_mismatch_changes_only_the_plant(params, scene) -> None:
     assert current.tolist() == [0.1, 0.0, 0.0] and dead == [3]
     assert plant.arm.links[0].added_mass_coefficient == pytest.approx(1.5 * params.arm.links[0].added_mass_coefficient)
     assert load_params().hull.mass == params.hull.mass
+    _, absolute, _, _ = apply(params, scene, {"friction_coefficient": 0.15})
+    assert [p.friction for p in absolute.planes] == [0.15] * len(scene.planes)
 
 
 def test_recording_verifies_and_reads_back(tmp_path) -> None:

@@ -55,12 +55,10 @@ def _view(path: Path) -> int:
 
 
 def _mismatch(text: str) -> str:
-    """The mismatch spec: "default", "none" or the terms themselves (checked here, one line if bad)."""
+    """The mismatch spec: a name ("default", "wide", "none") or the terms themselves (one line if bad)."""
     from validation import mismatch
 
-    spec = {"default": mismatch.DEFAULT, "none": mismatch.NONE}.get(text, text)
-    mismatch.parse(spec)
-    return spec
+    return mismatch.resolve(text)
 
 
 def _print_summary(s: Summary) -> None:
@@ -102,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
                      "or package.module:Class of your own (controller.protocol)")
     for parser in (run,):
         parser.add_argument("--mismatch", default="default",
-                            help='plant-vs-controller mismatch: "default", "none" or terms like added_mass*U(0.8,1.2)')
+                            help='plant-vs-controller mismatch: "default", "wide", "none" or terms (mass*U(0.9,1.1))')
         parser.add_argument("--seed", type=int, default=0, help="seed of the mismatch draw")
     view = sub.add_parser("view", help="open a recording in the Rerun viewer (needs a display)")
     view.add_argument("recording", type=Path)
@@ -123,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     cmp.add_argument("a", type=Path)
     cmp.add_argument("b", type=Path)
     camp.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every scenario")
-    camp.add_argument("--mismatch", default="default", help='as for run: "default", "none" or terms')
+    camp.add_argument("--mismatch", default="default", help='as for run: "default", "wide", "none" or terms')
     camp.add_argument("--seeds", type=int, default=1, help="mismatch draws per scenario (seeds K..K+N-1)")
     camp.add_argument("--first-seed", type=int, default=0, metavar="K", help="the first seed (default 0)")
     default_scenarios = ",".join(n for n in SCENARIOS if "kane" not in SCENARIOS[n].tags)

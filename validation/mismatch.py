@@ -7,11 +7,18 @@ A mismatch is written as terms separated by spaces, each `name OP distribution`:
     cob+U(-0.003,0.003)     shift the plant's hull centre of buoyancy along body z [m]
     current+U(-0.1,0.1)     add an unknown current along world x [m/s] to the plant's
     friction*U(0.6,1.4)     scale the obstacles' contact friction
+    friction_coefficient=U(0.1,0.8)  set every obstacle's contact friction coefficient [-]
     thruster=U(0,8)         one thruster, floor of the draw, dead from t = 0 without the controller
                             knowing
 with distributions U(a,b) (uniform), N(mean,std) (normal) or a plain number. The draw is seeded; the
 drawn values and the spec are recorded in the run's summary. The controller always keeps the
 parameter file's values: every difference is this declared mismatch.
+
+Named specs (`NAMED`, the command line's `--mismatch NAME`): "default", the parameter file's
+uncertainty as a well-identified vehicle has it; "wide", a vehicle known only roughly (hull mass
+-20 to +30 % with its volume kept, so it is up to 4 kg heavy or 2.7 kg light in water; added mass
+and drag +-30 %; a wall friction coefficient anywhere from 0.1 to 0.8; an unknown current of up to
+0.2 m/s along world x, towards or away from the wall); "none".
 """
 
 from __future__ import annotations
@@ -26,7 +33,11 @@ from uvms.scene import Scene
 
 DEFAULT = "added_mass*U(0.8,1.2) drag*U(0.8,1.2) mass*U(0.97,1.03) cob+U(-0.003,0.003) friction*U(0.6,1.4)"
 NONE = ""
-_OPS = {"added_mass": "*", "drag": "*", "mass": "*", "cob": "+", "current": "+", "friction": "*", "thruster": "="}
+WIDE = ("added_mass*U(0.7,1.3) drag*U(0.7,1.3) mass*U(0.8,1.3) cob+U(-0.003,0.003) friction_coefficient=U(0.1,0.8) "
+        "current+U(-0.2,0.2)")
+NAMED = {"default": DEFAULT, "wide": WIDE, "none": NONE}
+_OPS = {"added_mass": "*", "drag": "*", "mass": "*", "cob": "+", "current": "+", "friction": "*",
+        "friction_coefficient": "=", "thruster": "="}
 _TERM = re.compile(r"^(?P<name>[a-z_]+)(?P<op>[*+=])(?P<dist>.+)$")
 _DIST = re.compile(r"^(?:(?P<kind>[UN])\((?P<a>[-+0-9.eE]+),(?P<b>[-+0-9.eE]+)\)|(?P<value>[-+0-9.eE]+))$")
 
@@ -47,6 +58,13 @@ class Term:
         return self.a
 
 
+def resolve(text: str) -> str:
+    """The spec of a name of NAMED, or the text itself (checked by `parse`: one line if bad)."""
+    spec = NAMED.get(text, text)
+    parse(spec)
+    return spec
+
+
 def parse(spec: str) -> tuple[Term, ...]:
     """The terms of a mismatch spec, or a one-line ValueError naming the bad term."""
     terms = []
@@ -54,8 +72,8 @@ def parse(spec: str) -> tuple[Term, ...]:
         m = _TERM.match(text)
         d = _DIST.match(m.group("dist")) if m else None
         if not m or not d:
-            raise ValueError(f"mismatch term {text!r} is malformed; allowed: name*U(a,b), name+N(mean,std) "
-                             f"or name*number with name one of {', '.join(_OPS)}")
+            raise ValueError(f"mismatch term {text!r} is malformed; allowed: {', '.join(NAMED)}, or terms "
+                             f"name*U(a,b), name+N(mean,std) or name*number with name one of {', '.join(_OPS)}")
         name, op = m.group("name"), m.group("op")
         if name not in _OPS:
             raise ValueError(f"unknown mismatch {name!r}; allowed: {', '.join(_OPS)}")
@@ -97,6 +115,9 @@ def apply(params: UVMSParams, scene: Scene,
     plant = replace(params, hull=hull, arm=replace(params.arm, links=tuple(links)))
     if "friction" in values:
         scene = scene.with_planes(tuple(replace(p, friction=p.friction * values["friction"]) for p in scene.planes))
+    if "friction_coefficient" in values:
+        mu = max(0.0, values["friction_coefficient"])
+        scene = scene.with_planes(tuple(replace(p, friction=mu) for p in scene.planes))
     current = np.array([values.get("current", 0.0), 0.0, 0.0])
     dead = [int(np.clip(np.floor(values["thruster"]), 0, params.n_thrusters - 1))] if "thruster" in values else []
     return plant, scene, current, dead
