@@ -121,6 +121,10 @@ class Arm:
     end_effector: np.ndarray  # (3,) m, in the last link's frame
     tip_radius: float  # m
     tip_force_limit: float  # N, largest contact force the jaws may take
+    # The tip's soft contact with an obstacle (the plant's, and the controller's impact law: controller.impact)
+    contact_time_constant: float  # s, critically damped
+    contact_impedance: float  # 1, the contact's largest impedance d_max
+    contact_weight: float  # 1/kg, the tip link's inverse inertia that scales the contact's softness
 
     @property
     def n_joints(self) -> int:
@@ -169,7 +173,9 @@ class UVMSParams:
     def without_arm(self) -> UVMSParams:
         """The hull alone (zero links): for hull-only experiments."""
         arm = Arm(name="none", links=(), home=_frozen([]), stowed=_frozen([]), end_effector=_frozen([0, 0, 0]),
-                  tip_radius=self.arm.tip_radius, tip_force_limit=self.arm.tip_force_limit)
+                  tip_radius=self.arm.tip_radius, tip_force_limit=self.arm.tip_force_limit,
+                  contact_time_constant=self.arm.contact_time_constant, contact_impedance=self.arm.contact_impedance,
+                  contact_weight=self.arm.contact_weight)
         return replace(self, arm=arm)
 
 
@@ -383,7 +389,10 @@ def _arm(name: str, t: _Table, links: dict[str, Link]) -> Arm:
     arm = Arm(name=name, links=chain, home=home, stowed=postures["stowed"],
               end_effector=t.quantity("end_effector", "m", (3,)),
               tip_radius=t.scalar("tip_radius", "m", min_value=0.0, strict_min=True),
-              tip_force_limit=t.scalar("tip_force_limit", "N", min_value=0.0, strict_min=True))
+              tip_force_limit=t.scalar("tip_force_limit", "N", min_value=0.0, strict_min=True),
+              contact_time_constant=t.scalar("contact_time_constant", "s", min_value=0.0, strict_min=True),
+              contact_impedance=t.scalar("contact_impedance", "1", min_value=0.0, strict_min=True, max_value=1.0),
+              contact_weight=t.scalar("contact_weight", "1/kg", min_value=0.0, strict_min=True))
     t.finish()
     return arm
 

@@ -32,7 +32,7 @@ import mujoco
 import numpy as np
 from numpy.polynomial.legendre import leggauss
 
-from uvms.params import UVMSParams, parallel_axis
+from uvms.params import Arm, UVMSParams, parallel_axis
 from uvms.scene import Scene
 from uvms_mj.added_mass import AddedMassTerm
 
@@ -144,7 +144,7 @@ def _set_inertial(body: mujoco.MjsBody, mass: float, com: np.ndarray, inertia: n
                    contype=0, conaffinity=0, group=4, density=0.0, fluid_ellipsoid=1, fluid_coefs=[0, 0, 0, 0, 0])
 
 
-def _defaults(spec: mujoco.MjSpec) -> None:
+def _defaults(spec: mujoco.MjSpec, arm: Arm) -> None:
     veh = spec.add_default(VEHICLE_CLASS, spec.default)
     veh.geom.contype, veh.geom.conaffinity, veh.geom.condim = 1, 0, 3
     veh.geom.friction = [0.0, 0.0, 0.0]  # the obstacle's friction rules (higher priority)
@@ -153,6 +153,9 @@ def _defaults(spec: mujoco.MjSpec) -> None:
     veh.geom.density = 0.0
     obs = spec.add_default(OBSTACLE_CLASS, spec.default)
     obs.geom.contype, obs.geom.conaffinity, obs.geom.priority = 0, 1, 1
+    # the obstacle's higher priority makes its contact parameters the contact's: the arm's soft contact
+    obs.geom.solref = [arm.contact_time_constant, 1.0]
+    obs.geom.solimp = [obs.geom.solimp[0], arm.contact_impedance, *obs.geom.solimp[2:]]
     obs.geom.group = 1
 
 
@@ -184,7 +187,7 @@ def build_spec(params: UVMSParams, scene: Scene, options: BuildOptions = BuildOp
     opt.viscosity = scene.water.viscosity if options.fluid else 0.0
     opt.wind = scene.current.at(0.0)
     spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 720
-    _defaults(spec)
+    _defaults(spec, params.arm)
     _scene_geometry(spec, scene)
     buoy = options.buoyancy
 
