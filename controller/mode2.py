@@ -10,6 +10,11 @@ last node, the tip on the contact plane (eq. EE_Wall_Dist_Constraint). Objective
 node, plus a regularization of the inputs (1e-7 /N^2) and of the angular and joint rates
 (1e-2 s^2/rad^2), which the paper's objective leaves free at most stages.
 
+Not in the paper, the impact (`impact_fraction`): J_II also pays `impact_weight` times the tip's
+approach speed at the last node beyond the speed at which controller.impact's law predicts a peak
+of that fraction of the jaws' force limit (in the guess's last posture): an exact penalty, so the
+bound holds whenever some plan meets it, and the solution's predicted peak says whether it did.
+
 Not in the paper, for the hand-over to Mode III (with controller.switching's contact check):
 intervals of 0.05 s (dt in [0.025, 0.05] s; the paper: 0.1 s), and `terminal_margin` (4 cm): at
 contact every body the contact plane's clearances cover (the hull, every link but the last) is that
@@ -33,6 +38,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from controller import impact
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
@@ -43,6 +49,7 @@ from controller.transcription import (
     ipopt_status,
     midpoint_residual,
     smooth_norm,
+    smooth_relu,
     tip_gap,
 )
 from uvms.scene import Plane
@@ -61,6 +68,9 @@ class ModeIISettings:
     input_weight: float = 1e-7  # 1/N^2 regularization
     rate_weight: float = 1e-2  # s^2/rad^2, on the hull's angular and the joints' rates (no thrashing)
     distance_margin: float = 0.005  # m, bodies' clearance (the paper: >= 0)
+    impact_fraction: float | None = 0.75  # of the jaws' tip_force_limit: the planned impact's peak (None: unbounded)
+    impact_weight: float = 100.0  # s/m, J_II's exact penalty on the tip's approach speed beyond that peak's
+    impact_smoothing: float = 0.01  # m/s, that penalty's relu
     terminal_margin: float | None = 0.04  # m, other bodies off the contact plane at contact (None: as above)
     deploy_stiffness: float = 10.0  # N m/rad, the initial guess's arm PD
     deploy_damping: float = 1.5  # N m s/rad
@@ -79,6 +89,7 @@ class ModeIISolution:
     iterations: int
     cost: float
     w: np.ndarray
+    impact_force: float = float("nan")  # N, the planned contact's predicted peak (controller.impact)
 
 
 class ModeIIOCP:
@@ -93,8 +104,8 @@ class ModeIIOCP:
         plane = self.planes[contact]
         h, h1, u, a, dt, dt1 = (ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv),
                                 ca.SX.sym("dt"), ca.SX.sym("dt1"))
-        P = ca.SX.sym("P", ns + 1 + 3)  # h0, dt0 (unused: dt_0 is free), current
-        vc = P[ns + 1:]
+        P = ca.SX.sym("P", ns + 1 + 3 + 1)  # h0, dt0 (unused: dt_0 is free), current, allowed approach speed
+        vc, v_allowed = P[ns + 1:ns + 4], P[ns + 4]
         self._clearance = ca.Function("clear2", [h], [clearances(model, h, self.planes, contact)])
         self.n_clear = self._clearance.size1_out(0)
         self._contact_rows = contact_rows(model, self.planes, contact)
@@ -106,6 +117,9 @@ class ModeIIOCP:
         d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
         v_ee = model.jacobian_ee(h1)[:3, :] @ h1[nv:]
         terminal_cost = 1 / (d0 + s.eps) + s.ee_speed_weight * smooth_norm(v_ee, s.ee_speed_smoothing)
+        if s.impact_fraction is not None:
+            approach = -ca.dot(ca.DM(plane.normal), v_ee)
+            terminal_cost += s.impact_weight * smooth_relu(approach - v_allowed, s.impact_smoothing)
         self._stage = (ca.Function("cost2", [st, P], [cost]), ca.Function("cons2", [st, P], [cons]),
                        ca.Function("tcost2", [xN, P], [terminal_cost]),
                        ca.Function("tcons2", [xN, P], [tip_gap(model, h1, plane)]))
@@ -134,7 +148,7 @@ class ModeIIOCP:
 
     def _problem(self, N: int) -> StageProblem:
         cost, cons, tcost, tcons = self._stage
-        return StageProblem(nx=self.ns + 1, nv=self.nu + self.nv, horizon=N, np=self.ns + 4, cost=cost,
+        return StageProblem(nx=self.ns + 1, nv=self.nu + self.nv, horizon=N, np=self.ns + 5, cost=cost,
                             constraints=cons, terminal_cost=tcost, terminal_constraints=tcons, n_fixed=self.ns)
 
     def solver(self, N: int) -> ca.Function:
@@ -203,17 +217,30 @@ class ModeIIOCP:
         if self.settings.terminal_margin is not None:  # the last node: every protected body off the contact plane
             lbg[i + self._contact_rows] = self.settings.terminal_margin
         w0 = np.clip(self.pack(hs, us, dt0), lbw, ubw)
-        P = np.concatenate([h0, [dt0], np.zeros(3) if current is None else current])
+        P = np.concatenate([h0, [dt0], np.zeros(3) if current is None else current,
+                            [min(self.allowed_speed(hs[-1]), 1e3)]])  # (a finite parameter)
         t0 = time.perf_counter()
         r = solver(x0=w0, p=P, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg)
         elapsed = time.perf_counter() - t0
         st = solver.stats()
         w = np.asarray(r["x"]).ravel()
-        return ModeIISolution(status=ipopt_status(st),
-                              h=np.array([w[k * nz:k * nz + ns] for k in range(N + 1)]),
+        h_plan = np.array([w[k * nz:k * nz + ns] for k in range(N + 1)])
+        return ModeIISolution(status=ipopt_status(st), h=h_plan,
                               u=np.array([w[k * nz + ns + 1:k * nz + ns + 1 + nu] for k in range(N)]),
                               dt=float(w[ns]), solve_time=elapsed, iterations=int(st["iter_count"]),
-                              cost=float(r["f"]), w=w)
+                              cost=float(r["f"]), w=w, impact_force=self.impact_force(h_plan[-1]))
+
+    def allowed_speed(self, h: np.ndarray) -> float:
+        """The tip's approach speed [m/s] at which it meets the contact plane, in h's posture, with a peak
+        of `impact_fraction` of the jaws' limit (controller.impact; inf without the bound)."""
+        if self.settings.impact_fraction is None:
+            return np.inf
+        force = self.settings.impact_fraction * self.model.params.arm.tip_force_limit
+        return force / impact.stiffness(self.model, h, self.planes[self.contact])
+
+    def impact_force(self, h: np.ndarray) -> float:
+        """The predicted peak normal force [N] of the tip meeting the contact plane from state h."""
+        return impact.peak_force(self.model, h, self.planes[self.contact])
 
 
 def next_horizon(N: int, dt: float, dt_nominal: float) -> int:

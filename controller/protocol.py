@@ -81,6 +81,7 @@ class StepInfo:
     closing_speeds: np.ndarray | None = None  # (n_planes, n_bodies) m/s
     certificate: Any = None  # the switching NMPC: controller.feasibility.Certificate
     switch: Enum | str | None = None  # why this step left Mode I (controller.switching.SwitchReason)
+    impact_force: float | None = None  # N: the planned contact's predicted peak tip force (controller.impact)
 
 
 @runtime_checkable

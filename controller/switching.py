@@ -106,6 +106,7 @@ class _ModeStep:
     u_pred: np.ndarray  # (N, nu)
     contact_force: np.ndarray | None = None  # (N, 3) obstacle frame [N] (Mode III)
     certificate: Certificate | None = None
+    impact_force: float | None = None  # N (Mode II's plan)
 
 
 class SwitchingNMPC:
@@ -243,7 +244,8 @@ class SwitchingNMPC:
                         solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=out.iterations,
                         dt=out.dt, horizon=out.horizon, h_pred=out.h_pred, u_pred=out.u_pred,
                         contact_force=out.contact_force, contact_plane=self.contact, distances=distances,
-                        closing_speeds=closing, certificate=out.certificate, switch=self._switch)
+                        closing_speeds=closing, certificate=out.certificate, switch=self._switch,
+                        impact_force=out.impact_force)
         return self._last_u, info
 
     def _step_mode1(self, h: np.ndarray, t: float) -> _ModeStep:
@@ -367,7 +369,8 @@ class SwitchingNMPC:
             self._horizon2 = min(N - 1, next_horizon(N, dt, s.dt_nominal))
         else:
             self.mode, self._plan = Mode.III, None
-        return _ModeStep(u, sol.status, fallback, iters, dt, N, hp, up, certificate=cert)
+        return _ModeStep(u, sol.status, fallback, iters, dt, N, hp, up, certificate=cert,
+                         impact_force=ocp.impact_force(hp[-1]))
 
     def _step_mode3(self, h: np.ndarray) -> _ModeStep:
         self._reported_mode = Mode.III

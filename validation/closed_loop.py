@@ -266,7 +266,8 @@ def _record(t: float, period: float, delay: float, info: StepInfo, computed: flo
                       fallback=label(info.fallback), compute_time=computed, solve_time=float(info.solve_time),
                       ocp_time=float(info.ocp_time), iterations=int(info.iterations), horizon=int(info.horizon),
                       certificate=certificate_row(cert) if isinstance(cert, Certificate) else None,
-                      switch=label(info.switch))
+                      switch=label(info.switch),
+                      impact_force=None if info.impact_force is None else float(info.impact_force))
 
 
 def _summarize(sc: Scenario, resolved: presets.Resolved, mismatch: str, seed: int, drawn: dict, latency: str,

@@ -26,6 +26,7 @@ class StepRecord:
     horizon: int
     certificate: dict | None  # Mode I's feasibility verdict (verdict, method, violation m, seconds)
     switch: str | None  # why the step left Mode I
+    impact_force: float | None = None  # N: the planned contact's predicted peak tip force
 
 
 @dataclass(frozen=True)
