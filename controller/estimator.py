@@ -119,11 +119,9 @@ class CurrentObserver:
         c = known + self._estimate
         residual = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, c)
         J = np.empty((len(self._rows), 3))
-        for i in range(3):
-            e = np.zeros(3)
-            e[i] = s.fd_step
-            J[:, i] = (self._predict(h_prev, u_prev, dt, c + e) - self._predict(h_prev, u_prev, dt, c - e)) / (
-                2 * s.fd_step)
+        for i, e in enumerate(s.fd_step * np.eye(3)):
+            ahead, behind = self._predict(h_prev, u_prev, dt, c + e), self._predict(h_prev, u_prev, dt, c - e)
+            J[:, i] = (ahead - behind) / (2 * s.fd_step)
         if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(J))):
             return self.estimate
         delta = np.linalg.solve(J.T @ J + s.damping * np.eye(3), J.T @ residual)
