@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from controller.estimator import CurrentObserver, ObserverSettings
 from controller.feasibility import Certificate, CertificateSettings, FeasibilityTest, Method, Verdict
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
@@ -78,6 +79,8 @@ class SwitchingSettings:
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
+    observe_current: bool = False  # add controller.estimator's estimate of the unknown current (SwitchingController)
+    observer: ObserverSettings = field(default_factory=ObserverSettings)
 
 
 @dataclass(frozen=True)
@@ -405,23 +408,31 @@ class SwitchingNMPC:
 class SwitchingController:
     """The switching NMPC behind the controller protocol (controller.protocol): built at `reset`
     from the task's vehicle, planes and reference; told the known current and faults each step.
-    With `switching=False` in its settings it is the Mode-I-only baseline."""
+    With `switching=False` in its settings it is the Mode-I-only baseline. With `observe_current`
+    the model's current is the known one plus controller.estimator's estimate of the rest, updated
+    from each pair of measured states while the previous step was Mode I's with every body at
+    least `contact_clearance` off every plane (a contact's force would read as a current), and held
+    otherwise."""
 
     settings_type = SwitchingSettings
+    contact_clearance = 0.02  # m
 
     def __init__(self, settings: SwitchingSettings = SwitchingSettings(),
                  on_solve: Callable[[SolveEvent], None] | None = None):
         self.settings, self.on_solve = settings, on_solve
         self.nmpc: SwitchingNMPC | None = None
+        self.observer: CurrentObserver | None = None
         self._task: Task | None = None
         self._failed: tuple[int, ...] = ()
+        self._last: tuple[np.ndarray, np.ndarray, float, bool] | None = None  # h, u, t, and whether free
 
     def reset(self, task: Task) -> None:
         model = UVMSModel(task.params, task.scene.water)
-        self._task, self._failed = task, task.failed_thrusters(0.0)
+        self._task, self._failed, self._last = task, task.failed_thrusters(0.0), None
         settings = replace(self.settings, failed_thrusters=self._failed,
                            current=tuple(float(c) for c in task.scene.current.at(0.0)))
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
+        self.observer = CurrentObserver(model, self.settings.observer) if self.settings.observe_current else None
 
     def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, StepInfo]:
         if self.nmpc is None or self._task is None:
@@ -430,5 +441,14 @@ class SwitchingController:
         if failed != self._failed:
             self.nmpc.set_failed_thrusters(failed)
             self._failed = failed
-        self.nmpc.current = self._task.scene.current.at(t)
-        return self.nmpc.step(h, t)
+        known = self._task.scene.current.at(t)
+        if self.observer is not None:
+            if self._last is not None and self._last[3] and t > self._last[2]:
+                self.observer.update(self._last[0], self._last[1], t - self._last[2], np.asarray(h, float), known)
+            known = known + self.observer.estimate
+        self.nmpc.current = known
+        u, info = self.nmpc.step(h, t)
+        free = info.mode is Mode.I and info.distances is not None and bool(
+            np.min(info.distances) > self.contact_clearance)
+        self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
+        return u, info
