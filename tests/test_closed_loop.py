@@ -291,26 +291,6 @@ def test_plots_are_written(tmp_path) -> None:
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def _mode3_failing_after(solves: int, solve=None):
-    """A stand-in for ModeIIIOCP.solve that passes its first `solves` calls to `solve` (the real
-    one) and then returns the input guess with status FAILED (a failure made certain, not left to
-    the solvers' last digits)."""
-    from controller.mode3 import ModeIIISolution
-    from controller.transcription import SolverStatus
-
-    calls = [0]
-
-    def stand_in(self, h0, guess, current=None, duals=None):
-        calls[0] += 1
-        if calls[0] <= solves:
-            return solve(self, h0, guess, current, duals)
-        hs, us, fs = self.unpack(guess)
-        return ModeIIISolution(SolverStatus.FAILED, hs, us, fs, 0.0, 0, np.nan, np.asarray(guess),
-                               np.zeros(0), np.zeros(0))
-
-    return stand_in
-
-
 @pytest.mark.slow
 def test_mode_three_failed_entry_redeploys_instead_of_holding_the_arm_rigid(tmp_path, monkeypatch) -> None:
     """Mode III's solve made to fail (ModeIIIOCP.solve returns its input guess with status FAILED:
@@ -320,9 +300,15 @@ def test_mode_three_failed_entry_redeploys_instead_of_holding_the_arm_rigid(tmp_
     (Fallback.REDEPLOY) and the rigid-arm fallback never runs; without it (the switching-paper
     preset's rule) the fallback is maximum braking with the arm held rigid (Fallback.HOLD).
     Oracle: the fallback rules of controller.switching, read off the steps."""
-    from controller.mode3 import ModeIIIOCP
+    from controller.mode3 import ModeIIIOCP, ModeIIISolution
+    from controller.transcription import SolverStatus
 
-    monkeypatch.setattr(ModeIIIOCP, "solve", _mode3_failing_after(0))
+    def failing(self, h0, guess, current=None, duals=None):
+        hs, us, fs = self.unpack(guess)
+        return ModeIIISolution(SolverStatus.FAILED, hs, us, fs, 0.0, 0, np.nan, np.asarray(guess),
+                               np.zeros(0), np.zeros(0))
+
+    monkeypatch.setattr(ModeIIIOCP, "solve", failing)
     out = {}
     for redeploy in (False, True):
         s = run(replace(get("wall-headon"), duration=1.5), ctl={"redeploy": redeploy}, mismatch=DEFAULT, seed=0,
@@ -340,11 +326,24 @@ def test_mode_three_failing_after_it_pushed_holds_the_arm_as_a_strut(tmp_path, m
     after the shifted plan runs out holds the arm rigid with maximum braking and stays in Mode III
     (Fallback.HOLD), and no Mode II afresh (Fallback.REDEPLOY) follows the usable solve; without it
     that step is Mode II afresh. Oracle: the fallback rules of controller.switching, read off the steps."""
-    from controller.mode3 import ModeIIIOCP
+    from controller.mode3 import ModeIIIOCP, ModeIIISolution
+    from controller.transcription import SolverStatus
 
-    out, solve = {}, ModeIIIOCP.solve
+    solve = ModeIIIOCP.solve
+    calls = {"n": 0}
+
+    def first_only(self, h0, guess, current=None, duals=None):
+        calls["n"] += 1
+        if calls["n"] == 1:
+            return solve(self, h0, guess, current, duals)
+        hs, us, fs = self.unpack(guess)
+        return ModeIIISolution(SolverStatus.FAILED, hs, us, fs, 0.0, 0, np.nan, np.asarray(guess),
+                               np.zeros(0), np.zeros(0))
+
+    monkeypatch.setattr(ModeIIIOCP, "solve", first_only)
+    out = {}
     for hold in (True, False):
-        monkeypatch.setattr(ModeIIIOCP, "solve", _mode3_failing_after(1, solve))
+        calls["n"] = 0
         s = run(replace(get("wall-headon"), duration=1.5), ctl={"strut_hold": hold}, mismatch=DEFAULT, seed=0,
                 out=tmp_path / str(hold))
         out[hold] = [(st.mode, st.fallback) for st in s.steps]
