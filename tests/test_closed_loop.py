@@ -318,42 +318,6 @@ def test_mode_three_failed_entry_redeploys_instead_of_holding_the_arm_rigid(tmp_
     assert Fallback.REDEPLOY.value in out[True] and Fallback.HOLD.value not in out[True]
 
 
-@pytest.mark.slow
-def test_mode_three_failing_after_it_pushed_holds_the_arm_as_a_strut(tmp_path, monkeypatch) -> None:
-    """Mode III's solves made to fail after the first usable one (the first call solves, every later
-    one returns its guess with status FAILED: certain, not left to the solvers' last digits), on
-    wall-headon's first 1.5 s (default mismatch, seed 0). With `strut_hold` (the default) the step
-    after the shifted plan runs out holds the arm rigid with maximum braking and stays in Mode III
-    (Fallback.HOLD), and no Mode II afresh (Fallback.REDEPLOY) follows the usable solve; without it
-    that step is Mode II afresh. Oracle: the fallback rules of controller.switching, read off the steps."""
-    from controller.mode3 import ModeIIIOCP, ModeIIISolution
-    from controller.transcription import SolverStatus
-
-    solve = ModeIIIOCP.solve
-    calls = {"n": 0}
-
-    def first_only(self, h0, guess, current=None, duals=None):
-        calls["n"] += 1
-        if calls["n"] == 1:
-            return solve(self, h0, guess, current, duals)
-        hs, us, fs = self.unpack(guess)
-        return ModeIIISolution(SolverStatus.FAILED, hs, us, fs, 0.0, 0, np.nan, np.asarray(guess),
-                               np.zeros(0), np.zeros(0))
-
-    monkeypatch.setattr(ModeIIIOCP, "solve", first_only)
-    out = {}
-    for hold in (True, False):
-        calls["n"] = 0
-        s = run(replace(get("wall-headon"), duration=1.5), ctl={"strut_hold": hold}, mismatch=DEFAULT, seed=0,
-                out=tmp_path / str(hold))
-        out[hold] = [(st.mode, st.fallback) for st in s.steps]
-    first = next(k for k, (mode, fb) in enumerate(out[True]) if mode == "III" and fb == Fallback.NONE.value)
-    later = out[True][first + 1:]
-    assert ("III", Fallback.HOLD.value) in later and all(fb != Fallback.REDEPLOY.value for _, fb in later)
-    first = next(k for k, (mode, fb) in enumerate(out[False]) if mode == "III" and fb == Fallback.NONE.value)
-    assert any(fb == Fallback.REDEPLOY.value for _, fb in out[False][first + 1:])
-
-
 def test_a_controller_of_ones_own_runs_in_run_and_campaign(tmp_path) -> None:
     """The example PD station keeper (examples/pd_station_keeper.py, a class speaking
     controller.protocol) runs through `uvms run --controller examples.pd_station_keeper:PDStationKeeper`
