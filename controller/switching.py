@@ -14,12 +14,9 @@ measured state by the model's RK4 (the Final Algorithm); Mode III's nodes are pu
 by Algorithm 2's inverse kinematics. A solve whose status is not usable is not used: the fallback
 (StepInfo.fallback) is the previous plan of the same mode shifted by one interval, else Mode I's
 maximum braking, Mode II's deploy guess, and for Mode III's first solve Mode II afresh (`redeploy`,
-not in the paper) or, without it, maximum braking with the arm held rigid. A later Mode III step
-with no plan to shift holds the arm rigid as a strut with maximum braking (`strut_hold`, not in the
-paper): Mode II afresh from a tip already on the wall asks a one-interval deploy that rarely solves,
-and its guess lets the hull come on. A failed Mode III solve does not end Mode III: the next step
-solves again from the measured state. The rules not in the paper and their evidence:
-docs/decisions.md.
+not in the paper) or, without it, maximum braking with the arm held rigid. A failed Mode III solve
+does not end Mode III: the next step solves again from the measured state. The rules not in the
+paper and their evidence: docs/decisions.md.
 """
 
 from __future__ import annotations
@@ -77,7 +74,6 @@ class SwitchingSettings:
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh (else maximum braking, arm held)
-    strut_hold: bool = True  # a later one failing, no plan to shift: maximum braking, arm held (else as the first)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
     release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
@@ -380,7 +376,7 @@ class SwitchingNMPC:
                          impact_force=ocp.impact_force(hp[-1]))
 
     def _step_mode3(self, h: np.ndarray) -> _ModeStep:
-        entry, self._reported_mode = self._reported_mode is not Mode.III, Mode.III
+        self._reported_mode = Mode.III
         s, ocp = self.settings.mode3, self.ocp3(self.contact)
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
         if previous is not None:  # the Final Algorithm: the plan's recomputed states, shifted, from h
@@ -401,7 +397,7 @@ class SwitchingNMPC:
         if previous is not None:
             return _ModeStep(previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
                              previous.h, previous.u, previous.force)
-        if self.settings.redeploy and (entry or not self.settings.strut_hold):  # links kept off, not a rigid arm
+        if self.settings.redeploy:  # a plan that keeps the links off the wall rather than a rigid arm
             self.mode, self._horizon2 = Mode.II, self.settings.mode2.horizon
             out = self._step_mode2(h)
             return replace(out, fallback=Fallback.REDEPLOY if out.fallback is Fallback.NONE else out.fallback)
