@@ -39,7 +39,9 @@ class KnownFault:
 class Task:
     """What a controller is told before a run: its (nominal) vehicle, the scene (water, obstacle
     planes, the current it knows: scene.current.at(t) [m/s, world]), the start state, the reference
-    h_ref(t), the faults it is told of, and the run's length [s]."""
+    h_ref(t), the faults it is told of, the run's length [s], and the latency [s]: each input but
+    the first step's acts from `latency` after its state's sample until the next input does, the
+    previous input acting meanwhile (0: the plant waits for the controller)."""
 
     name: str
     params: UVMSParams
@@ -48,6 +50,7 @@ class Task:
     reference: Callable[[float], np.ndarray]
     known_faults: tuple[KnownFault, ...] = ()
     duration: float = 0.0
+    latency: float = 0.0  # s: each input reaches the thrusters this long after its state's sample
 
     def failed_thrusters(self, t: float) -> tuple[int, ...]:
         """The thrusters known to be dead at time t [s] (sorted)."""
@@ -74,7 +77,8 @@ class StepInfo:
     iterations: int = 0
     horizon: int = 0  # N_p
     h_pred: np.ndarray | None = None  # (N+1, ns) predicted states
-    u_pred: np.ndarray | None = None  # (N, nu) planned inputs
+    u_pred: np.ndarray | None = None  # (N, nu) planned inputs, each for dt: the first is the input returned, the
+    # next are what it commits to should its following steps come too late (validation.closed_loop, strict)
     contact_force: np.ndarray | None = None  # (N, 3) planned contact force, obstacle frame [N]
     contact_plane: int | None = None  # index of the plane the contact is planned on
     distances: np.ndarray | None = None  # (n_planes, n_bodies) m, at the measured state

@@ -81,6 +81,7 @@ class SwitchingSettings:
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     observe_current: bool = False  # add controller.estimator's estimate of the unknown current (SwitchingController)
     observer: ObserverSettings = field(default_factory=ObserverSettings)
+    plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
 
 
 @dataclass(frozen=True)
@@ -145,7 +146,7 @@ class SwitchingNMPC:
         self._plan: OCPSolution | ModeIISolution | ModeIIISolution | None = None
         self._recomputed = np.zeros((0, model.n_states))  # the Mode III plan's states from its inputs
         self._horizon2 = settings.mode2.horizon
-        self._last_u = np.zeros(model.n_inputs)
+        self.last_u = np.zeros(model.n_inputs)
         self._reported_mode = Mode.I
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
@@ -203,6 +204,17 @@ class SwitchingNMPC:
                  for pl in self.planes]
         return int(np.argmin(worst))
 
+    def predict(self, h: np.ndarray, u: np.ndarray, seconds: float) -> np.ndarray:
+        """The state `seconds` after h with the input u held (the model's RK4 in 4 substeps, with the
+        current the model assumes); in Mode III with a plan, with that plan's first contact force and
+        the arm put back on the plane, as the Final Algorithm recomputes the plan's nodes."""
+        if seconds <= 0.0:
+            return np.asarray(h, float)
+        u = np.asarray(u, float)[None]
+        if self.mode is Mode.III and isinstance(self._plan, ModeIIISolution):
+            return self._resimulate(h, u, seconds, self._plan.force[:1], self.ocp3(self.contact))[-1]
+        return self._resimulate(h, u, seconds)[-1]
+
     def _resimulate(self, h0: np.ndarray, us: np.ndarray, dt: float, forces: np.ndarray | None = None,
                     ocp3: ModeIIIOCP | None = None) -> np.ndarray:
         """The Final Algorithm's state trajectory of the inputs (RK4, 4 substeps per interval); with
@@ -242,14 +254,14 @@ class SwitchingNMPC:
             out = self._step_mode2(h)
         else:
             out = self._step_mode3(h)
-        self._last_u = np.clip(out.u, self.lo, self.hi)
+        self.last_u = np.clip(out.u, self.lo, self.hi)
         info = StepInfo(t=t, mode=self._reported_mode, status=out.status, fallback=out.fallback,
                         solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=out.iterations,
                         dt=out.dt, horizon=out.horizon, h_pred=out.h_pred, u_pred=out.u_pred,
                         contact_force=out.contact_force, contact_plane=self.contact, distances=distances,
                         closing_speeds=closing, certificate=out.certificate, switch=self._switch,
                         impact_force=out.impact_force)
-        return self._last_u, info
+        return self.last_u, info
 
     def _step_mode1(self, h: np.ndarray, t: float) -> _ModeStep:
         """Mode I's step, or Mode II's first when the certificate or the deadline ends Mode I."""
@@ -303,7 +315,7 @@ class SwitchingNMPC:
         if previous is not None:
             self._plan = None
             return _ModeStep(previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
-                             previous.h, previous.u, certificate=cert)
+                             previous.h[1:], previous.u[1:], certificate=cert)
         hs, us = self.feasibility.braking_rollout(h, self.current)
         return _ModeStep(us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, certificate=cert)
 
@@ -385,7 +397,7 @@ class SwitchingNMPC:
             guess = ocp.pack(np.vstack([h, self._recomputed[2:], self._recomputed[-1:]]), us, Fs)
             duals = ocp.shifted_duals(previous)
         else:  # Algorithm 2
-            guess = ocp.contact_guess(h, np.repeat(self._last_u[None], s.horizon, 0), None, self.current)
+            guess = ocp.contact_guess(h, np.repeat(self.last_u[None], s.horizon, 0), None, self.current)
             duals = None
         sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
@@ -396,7 +408,7 @@ class SwitchingNMPC:
         self._plan = None
         if previous is not None:
             return _ModeStep(previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
-                             previous.h, previous.u, previous.force)
+                             previous.h[1:], previous.u[1:], previous.force[1:])
         if self.settings.redeploy:  # a plan that keeps the links off the wall rather than a rigid arm
             self.mode, self._horizon2 = Mode.II, self.settings.mode2.horizon
             out = self._step_mode2(h)
@@ -412,7 +424,14 @@ class SwitchingController:
     the model's current is the known one plus controller.estimator's estimate of the rest, updated
     from each pair of measured states while the previous step was Mode I's with every body at
     least `contact_clearance` off every plane (a contact's force would read as a current), and held
-    otherwise."""
+    otherwise (and always without a latency: the observer assumes one input per interval).
+
+    With a task latency L > 0 and `plan_for_latency`, each step after the first plans from the state
+    predicted L after the measured one under the input it returned last, which acts meanwhile
+    (SwitchingNMPC.predict), for the reference at t + L; Mode II's intervals are at least L long
+    (dt_bounds and dt_nominal raised to L), so that each input acts for as long as it was planned.
+    Algorithm 1's horizon rule is unchanged: the plan of the next step starts one interval later,
+    as without a delay. L may not exceed Modes I's and III's interval."""
 
     settings_type = SwitchingSettings
     contact_clearance = 0.02  # m
@@ -431,6 +450,18 @@ class SwitchingController:
         self._task, self._failed, self._last = task, task.failed_thrusters(0.0), None
         settings = replace(self.settings, failed_thrusters=self._failed,
                            current=tuple(float(c) for c in task.scene.current.at(0.0)))
+        self.latency = float(task.latency) if self.settings.plan_for_latency else 0.0
+        if self.latency > 0.0:
+            s = settings
+            longest = min(s.mode1.dt, s.mode3.dt)
+            if self.latency > longest + 1e-12:
+                raise ValueError(f"task latency {self.latency} s is longer than Mode I's and III's interval; allowed: "
+                                 f"at most {longest} s, or plan_for_latency=false")
+            m2 = s.mode2
+            settings = replace(s, mode2=replace(m2, dt_nominal=max(m2.dt_nominal, self.latency),
+                                                dt_bounds=(max(m2.dt_bounds[0], self.latency),
+                                                           max(m2.dt_bounds[1], self.latency))))
+        self._started = False
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
         self.observer = CurrentObserver(model, self.settings.observer) if self.settings.observe_current else None
 
@@ -443,11 +474,17 @@ class SwitchingController:
             self._failed = failed
         known = self._task.scene.current.at(t)
         if self.observer is not None:
-            if self._last is not None and self._last[3] and t > self._last[2]:
+            if self._last is not None and self._last[3] and t > self._last[2] and self.latency == 0.0:
                 self.observer.update(self._last[0], self._last[1], t - self._last[2], np.asarray(h, float), known)
             known = known + self.observer.estimate
         self.nmpc.current = known
-        u, info = self.nmpc.step(h, t)
+        if self._started and self.latency > 0.0:  # the first step's input acts at once
+            u, info = self.nmpc.step(self.nmpc.predict(h, self.nmpc.last_u, self.latency), t + self.latency)
+            distances, closing = self.nmpc._geometry(np.asarray(h, float))
+            info = replace(info, t=t, distances=distances, closing_speeds=closing)
+        else:
+            u, info = self.nmpc.step(h, t)
+        self._started = True
         free = info.mode is Mode.I and info.distances is not None and bool(
             np.min(info.distances) > self.contact_clearance)
         self._last = (np.asarray(h, float).copy(), u.copy(), t, free)

@@ -34,6 +34,9 @@ def test_scenarios_are_listed_one_line_each(capsys) -> None:
                                   ["campaign", "--latency", "-0.1", "--out", "/tmp/uvms-never-written"],
                                   ["run", "avoid-wall", "--latency", "0.1@IV"],
                                   ["run", "avoid-wall", "--latency", "0.1@"],
+                                  ["run", "avoid-wall", "--strict"],
+                                  ["run", "avoid-wall", "--latency", "measured", "--strict"],
+                                  ["campaign", "--latency", "0:strict", "--out", "/tmp/uvms-never-written"],
                                   ["run", "avoid-wall", "--controller", "no-such-preset"],
                                   ["run", "avoid-wall", "--controller", "no_such_module:Class"],
                                   ["run", "avoid-wall", "--ctl", "mode3.horizn=10"],
@@ -110,6 +113,65 @@ def test_a_computation_delay_holds_the_previous_input(tmp_path, monkeypatch) -> 
         assert first[0] == pytest.approx(0.1 * k) and second[0] == pytest.approx(0.1 * k + 0.05)
         np.testing.assert_array_equal(first[2], commanded[k - 1])
         np.testing.assert_array_equal(second[2], commanded[k])
+
+
+class _Planner:
+    """Returns at step k the plan P_k (three rows, each entry 0.01 (10 k + row) N or N m, within every
+    bound), its first row as the input, with a 0.1 s period; its step advances the loop's clock by
+    0.08 s at the steps in `slow` and by 1 ms otherwise."""
+
+    def __init__(self, clock: list[float], slow: set[int]):
+        self.clock, self.slow, self.k = clock, slow, 0
+
+    def reset(self, task) -> None:
+        self.n = task.params.n_inputs
+
+    def plan(self, k: int) -> np.ndarray:
+        return np.array([np.full(self.n, 0.01 * (10 * k + row)) for row in range(3)])
+
+    def step(self, h, t):
+        from controller.protocol import StepInfo
+        self.clock[0] += 0.08 if self.k in self.slow else 0.001
+        plan, self.k = self.plan(self.k), self.k + 1
+        return plan[0], StepInfo(t=t, dt=0.1, mode="plan", u_pred=plan)
+
+
+@pytest.mark.parametrize("strict", [True, False])
+def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, monkeypatch) -> None:
+    """latency 0.05 s; steps 2, 3 and 4 take 0.08 s on the loop's clock (a fake one, advanced by the
+    controller: the test does not depend on this machine's speed). Strict: each overrun's answer
+    is discarded and the plant gets, after the delay, the next row of the last accepted plan (P_1),
+    then its last row again once the plan is used up; step 5 is on time and its own plan's first
+    row applies. Not strict: every answer applies, late or not. The oracle is the plans themselves
+    (every input the plant receives is logged, Plant.step); the summary counts the three overruns,
+    in the step records and in the mode's timing."""
+    import validation.closed_loop as loop
+    from uvms_mj.plant import Plant
+
+    clock, calls, step = [0.0], [], Plant.step
+
+    def logged(self, u, duration):
+        calls.append((round(self.t, 6), np.array(u, float)))
+        return step(self, u, duration)
+
+    monkeypatch.setattr(Plant, "step", logged)
+    monkeypatch.setattr(loop.time, "perf_counter", lambda: clock[0])
+    ctl = _Planner(clock, slow={2, 3, 4})
+    sc = get("wall-headon").with_overrides({"duration": "0.6", "faults": "none", "current.velocity": "0,0,0"})
+    s = run(sc, controller=ctl, mismatch=NONE, latency="0.05:strict" if strict else "0.05")
+    P = ctl.plan
+    late = [(P(1)[0], P(1)[1]), (P(1)[1], P(1)[2]), (P(1)[2], P(1)[2])] if strict else \
+        [(P(1)[0], P(2)[0]), (P(2)[0], P(3)[0]), (P(3)[0], P(4)[0])]
+    expected = [(0.0, P(0)[0]), (0.1, P(0)[0]), (0.15, P(1)[0])]
+    for k, (during_delay, after) in zip((2, 3, 4), late, strict=True):
+        expected += [(0.1 * k, during_delay), (0.1 * k + 0.05, after)]
+    expected += [(0.5, late[-1][1]), (0.55, P(5)[0])]
+    assert [t for t, _ in calls] == pytest.approx([t for t, _ in expected])
+    for (t, got), (_, want) in zip(calls, expected, strict=True):
+        np.testing.assert_array_equal(got, want, err_msg=f"input at t = {t}")
+    assert [st.overrun for st in s.steps] == [False, False, True, True, True, False]
+    assert s.overruns == 3 and s.solve_time["plan"].overruns == 3
+    assert [st.fallback != "none" for st in s.steps] == [False, False, strict, strict, strict, False]
 
 
 def test_overrides_parse_numbers_and_tuples() -> None:

@@ -162,3 +162,36 @@ def test_every_solve_is_reported_to_the_hook(params, scene) -> None:
     ctl.step(h, 0.0)
     kinds = [e.kind for e in events]
     assert "certificate" in kinds and kinds[-1] == "mode2"
+
+
+def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene) -> None:
+    """Task latency 0.05 s, 0.3 m/s towards the wall 1 m ahead with a 0.1 m/s current (Mode I): the
+    first step plans from the measured state (its input acts at once); the second from the state
+    0.05 s later under the first step's input held, which is what acts during the delay. Oracle:
+    the model's RK4 in 200 substeps of 0.25 ms from the measured state under that input and
+    current, against the plan's first node (4 substeps of 12.5 ms). Tolerance 1e-6 (m, rad, m/s,
+    rad/s): RK4's error at 12.5 ms on this motion is below 1e-8; anything from the wrong input, the
+    wrong time or no prediction at all is above 1e-3. Mode II's intervals are raised to the
+    latency, and a latency longer than Mode I's interval is refused in one line."""
+    from controller.protocol import Task
+    from controller.switching import SwitchingController
+
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, wall_approach(1.0, 0.3))
+    from uvms.scene import Current
+    water = scene.with_current(Current.constant((0.1, 0.0, 0.0)))
+    task = Task("latency", params, water, h, lambda t: ref, latency=0.05)
+    ctl = SwitchingController()
+    ctl.reset(task)
+    assert ctl.nmpc.settings.mode2.dt_bounds == (0.05, 0.05) and ctl.nmpc.settings.mode2.dt_nominal == 0.05
+    u0, info0 = ctl.step(h, 0.0)
+    assert info0.mode is Mode.I and np.array_equal(info0.h_pred[0], h)
+    h1 = model.held_steps(h, u0, 0.1, 400, vc=np.array([0.1, 0.0, 0.0]))  # the plant, held input
+    _, info1 = ctl.step(h1, 0.1)
+    fine = model.held_steps(h1, u0, 0.05, 200, vc=np.array([0.1, 0.0, 0.0]))
+    assert info1.t == 0.1 and info1.mode is Mode.I
+    np.testing.assert_allclose(info1.h_pred[0], fine, atol=1e-6)
+    assert np.max(np.abs(fine - h1)) > 1e-3  # the prediction is not the measured state
+    with pytest.raises(ValueError, match="allowed") as err:
+        SwitchingController().reset(replace(task, latency=0.15))
+    assert "\n" not in str(err.value)

@@ -5,11 +5,11 @@
   uvms build [--scenarios A,B] [--controllers C,D] [--ctl key=value ...] [--workers K]
                                                    compile what those runs need, ahead, in parallel
   uvms run NAME [--set key=value ...] [--controller C] [--ctl key=value ...] [--mismatch M]
-               [--seed N] [--out DIR] [--video FILE] [--record FILE] [--plots DIR] [--latency L]
+               [--seed N] [--out DIR] [--video FILE] [--record FILE] [--plots DIR] [--latency L [--strict]]
                                                    run one in closed loop against MuJoCo
   uvms view FILE.rrd                               open a recording in the Rerun viewer
   uvms campaign [--scenarios A,B] [--controllers C,D] [--ctl key=value ...] [--mismatch M]
-               [--seeds N] [--first-seed K] [--workers K | --cluster ADDRESS] [--out DIR] [--latency L]
+               [--seeds N] [--first-seed K] [--workers K | --cluster ADDRESS] [--out DIR] [--latency L [--strict]]
                [--timeout SECONDS] [--resume]
                                                    run many, each row written as it finishes, with a
                                                    progress bar, intervals and paired tests at the end
@@ -136,7 +136,12 @@ def main(argv: list[str] | None = None) -> int:
                             help='computation delay: "none" (the plant waits for the controller; default), '
                                  '"measured" (each step\'s own wall-clock time on this machine) or seconds; '
                                  '"@II,III" after it delays only the steps of those modes')
+        parser.add_argument("--strict", action="store_true",
+                            help="strict real time: a step that overruns the latency has its answer discarded for "
+                                 "the input the controller committed in advance (needs --latency in seconds)")
     args = ap.parse_args(argv)
+    if getattr(args, "strict", False) and not args.latency.endswith(":strict"):
+        args.latency += ":strict"
     try:
         if args.command == "scenarios":
             rows = [(name, ",".join(sc.tags), sc.description) for name, sc in SCENARIOS.items()]

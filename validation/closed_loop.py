@@ -9,10 +9,18 @@ friction, the mismatch) is shared.
 
 Latency (`latency`, "none" by default: the plant waits for the controller). With a number of
 seconds L each step's input reaches the thrusters L after its state was sampled, the previous input
-acting meanwhile; "measured" uses each step's own wall-clock time (outcomes then depend on the
-machine and its load; the loop runs no faster than real time). "@MODES" (e.g. "0.1@II,III")
-delays only the steps computed in those modes. A step whose computation takes longer than L is an
-overrun (Summary.overruns).
+acting meanwhile, and the controller is told L (Task.latency) so that it can plan for it;
+"measured" uses each step's own wall-clock time (outcomes then depend on the machine and its load;
+the loop runs no faster than real time). "@MODES" (e.g. "0.1@II,III") delays only the steps
+computed in those modes (the controller is then told no delay). A step whose computation takes
+longer than L is an overrun, counted per mode (Summary.solve_time, StepRecord.overrun).
+
+Strict real time (":strict" after a number of seconds, `--strict`): an overrun's answer is
+discarded, as if its computation had been cut at L, and the input the controller committed in
+advance is applied instead for one period of its last accepted step: the next input of that step's
+plan (StepInfo.u_pred, whose first row is the input it returned), one further row per consecutive
+overrun, and its last input held once the plan runs out (a controller without a plan: its last
+input). The controller is not told; its next step starts from the measured state.
 
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
 tip, and only the tip, touch. A stowed arm that hits the wall before the hull spares the hull but is
@@ -28,7 +36,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: headless
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -90,19 +98,32 @@ def _pieces(duration: float, ts: float, longest: float) -> list[float]:
     return [int(n) * ts for n in np.diff(bounds)]
 
 
+STRICT = ":strict"
+
+
 @dataclass(frozen=True)
 class Latency:
     """A computation delay (module docstring)."""
 
     seconds: float | None  # the same for every step; None: each step's own wall-clock time ("measured")
     modes: frozenset[Mode] = frozenset(Mode)  # the modes whose steps are delayed (the braking baseline: always)
+    strict: bool = False  # an overrun's answer is discarded for the committed input
+
+    @property
+    def told(self) -> float:
+        """The delay the controller is told to plan for [s] (Task.latency): L when every step is
+        delayed by it, else 0."""
+        return self.seconds if self.seconds is not None and self.modes == frozenset(Mode) else 0.0
 
 
 def parse_latency(spec: str) -> Latency:
     """The computation delay from its spec: "none" (0 s), "measured", or a number of seconds >= 0,
-    optionally followed by "@" and the comma-separated modes whose steps it delays (default: all)."""
-    allowed = f"allowed: none, {MEASURED}, or a number of seconds >= 0, optionally @MODES such as @II,III"
-    delay, at, modes = spec.partition("@")
+    optionally followed by "@" and the comma-separated modes whose steps it delays (default: all),
+    then optionally ":strict" (a number of seconds > 0 only)."""
+    allowed = (f"allowed: none, {MEASURED}, or a number of seconds >= 0, optionally @MODES such as @II,III, "
+               f"then optionally {STRICT} after a number of seconds > 0")
+    strict = spec.endswith(STRICT)
+    delay, at, modes = spec.removesuffix(STRICT).partition("@")
     if at and not modes:
         raise ValueError(f"latency {spec!r}: no mode after @; {allowed}")
     if delay == "none":
@@ -120,7 +141,9 @@ def parse_latency(spec: str) -> Latency:
         chosen = frozenset(Mode(m) for m in modes.split(",")) if modes else frozenset(Mode)
     except ValueError:
         raise ValueError(f"latency {spec!r}: unknown mode; {allowed}") from None
-    return Latency(value, chosen)
+    if strict and not (value is not None and value > 0.0):
+        raise ValueError(f"latency {spec!r}: strict needs a delay of seconds > 0; {allowed}")
+    return Latency(value, chosen, strict)
 
 
 def certificate_row(c: Certificate | None) -> dict | None:
@@ -141,13 +164,14 @@ def switches(reasons: Sequence[Enum | str | None]) -> str:
     return f"{len(made)} ({made.count(SwitchReason.SOLVER_FAILURE.value)} by solver failure)"
 
 
-def task_of(sc: Scenario, params: UVMSParams, scene: Scene) -> Task:
-    """What the controller is told about the scenario (controller.protocol.Task)."""
+def task_of(sc: Scenario, params: UVMSParams, scene: Scene, latency: float = 0.0) -> Task:
+    """What the controller is told about the scenario (controller.protocol.Task), with the delay
+    [s] its inputs reach the thrusters after their state's sample."""
     h0, _ = initial_state(params, sc)
     ref = reference(params, sc)
     known = tuple(KnownFault(f.thrusters, f.at) for f in sc.faults if f.known and f.mode == "dead")
     return Task(name=sc.name, params=params, scene=scene, h0=h0, reference=ref if callable(ref) else lambda t: ref,
-                known_faults=known, duration=sc.duration)
+                known_faults=known, duration=sc.duration, latency=latency)
 
 
 def make_folders(*paths: Path | None) -> None:
@@ -187,7 +211,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     spec = parse_latency(latency)
     make_folders(out, video.parent if video else None, record.parent if record else None, plots)
     params, scene, plant, drawn = build_plant(sc, mismatch, seed)
-    task = task_of(sc, params, scene)
+    task = task_of(sc, params, scene, spec.told)
     plant.reset(task.h0)
     ctl_obj.reset(task)
     tally, telemetry = ContactTally(plant), Telemetry(plant)
@@ -207,6 +231,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     steps: list[StepRecord] = []
     origin = manifest.start() if out is not None else None
     wall_clock, u_prev, paced_from = time.perf_counter(), None, None
+    committed = Committed()
     try:
         while plant.t < sc.duration - 1e-9:
             t = plant.t
@@ -217,9 +242,15 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             computed = time.perf_counter() - t0
             _check_step(resolved.name, u, info, params.n_inputs)
             paced_from = time.perf_counter() if paced_from is None else paced_from
-            dt = max(ts, round(info.dt / ts) * ts)
             mode = label(info.mode)
             undelayed = u_prev is None or (mode in {m.value for m in Mode} and Mode(mode) not in spec.modes)
+            overrun = not undelayed and spec.seconds not in (None, 0.0) and computed > spec.seconds
+            if overrun and spec.strict:
+                u, period = committed.take(u_prev)
+                info = replace(info, dt=period, fallback=LATE, h_pred=None, u_pred=None, contact_force=None)
+            else:
+                committed.accept(u, info)
+            dt = max(ts, round(info.dt / ts) * ts)
             delay = 0.0 if undelayed else round((computed if spec.seconds is None else spec.seconds) / ts) * ts
             segments = [(u_prev, delay), (u, dt - delay)] if delay > 0 else [(u, dt)]
             for u_seg, duration in [(us, piece) for us, d in segments for piece in _pieces(d, ts, chunk)]:
@@ -228,7 +259,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
                 for obs in watching:
                     obs.observe(t_seg, report, info, u_seg)
             u_prev = u
-            steps.append(_record(t, max(dt, delay), delay, info, computed))
+            steps.append(_record(t, max(dt, delay), delay, info, computed, overrun))
         summary = _summarize(sc, resolved, mismatch, seed, drawn, latency, spec, params, scene, plant, task, tally,
                              steps, time.perf_counter() - wall_clock)
         if recording is not None:
@@ -260,14 +291,40 @@ def _check_step(name: str, u: np.ndarray, info: StepInfo, n_inputs: int) -> None
                          "allowed: a controller.protocol.StepInfo with a finite dt > 0 [s]")
 
 
-def _record(t: float, period: float, delay: float, info: StepInfo, computed: float) -> StepRecord:
+LATE = "committed input (the step overran its latency)"
+
+
+class Committed:
+    """The inputs a controller committed in advance (the module docstring's strict real time): the
+    rest of its last accepted step's plan, and that step's period."""
+
+    def __init__(self) -> None:
+        self.inputs: list[np.ndarray] = []
+        self.period = 0.0
+
+    def accept(self, u: np.ndarray, info: StepInfo) -> None:
+        """A step's answer is applied: its plan's later rows are what it commits to."""
+        plan = [] if info.u_pred is None else list(np.asarray(info.u_pred, float)[1:])
+        self.inputs, self.period = [np.asarray(row, float) for row in plan], float(info.dt)
+
+    def take(self, last: np.ndarray) -> tuple[np.ndarray, float]:
+        """The input to apply for an overrun, and for how long [s]: the plan's next row, else `last`."""
+        u = self.inputs.pop(0) if self.inputs else np.asarray(last, float)
+        if not self.inputs:
+            self.inputs = [u]
+        return u, self.period
+
+
+def _record(t: float, period: float, delay: float, info: StepInfo, computed: float,
+            overrun: bool = False) -> StepRecord:
     cert = info.certificate
     return StepRecord(t=t, dt=period, delay=delay, mode=label(info.mode), status=label(info.status),
                       fallback=label(info.fallback), compute_time=computed, solve_time=float(info.solve_time),
                       ocp_time=float(info.ocp_time), iterations=int(info.iterations), horizon=int(info.horizon),
                       certificate=certificate_row(cert) if isinstance(cert, Certificate) else None,
                       switch=label(info.switch),
-                      impact_force=None if info.impact_force is None else float(info.impact_force))
+                      impact_force=None if info.impact_force is None else float(info.impact_force),
+                      overrun=overrun)
 
 
 def _summarize(sc: Scenario, resolved: presets.Resolved, mismatch: str, seed: int, drawn: dict, latency: str,
@@ -280,12 +337,13 @@ def _summarize(sc: Scenario, resolved: presets.Resolved, mismatch: str, seed: in
     for m in dict.fromkeys(modes):
         times = [s.compute_time for s in steps if s.mode == m]
         per_mode[m] = ModeTiming(len(times), float(np.median(times)), float(np.percentile(times, 95)),
-                                 float(np.max(times)))
+                                 float(np.max(times)), float(np.percentile(times, 99)),
+                                 sum(s.overrun for s in steps if s.mode == m))
     c = tally.totals()
     wall = main_plane(scene.planes)
     hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
     outcome, reason = judge(c.hull_impulse, c.hull_peak, c.link_impulse, c.tip_peak, params.arm.tip_force_limit)
-    overruns = 0 if spec.seconds in (None, 0.0) else sum(s.compute_time > spec.seconds for s in steps)
+    overruns = sum(s.overrun for s in steps)
     return Summary(
         scenario={"name": sc.name, **sc.to_data()}, controller=resolved.name,
         controller_settings=resolved.settings_dict(),

@@ -16,7 +16,7 @@ from validation.statistics import Paired, paired, wilson
 MODES = ("I", "II", "III")
 SUCCESS = "success"
 COLUMNS = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
-           "ee_peak_contact_force", "link_contact_impulse", "fallbacks", "switches")
+           "ee_peak_contact_force", "link_contact_impulse", "fallbacks", "switches", "overruns")
 
 
 def _fmt(v: Any) -> str:

@@ -27,16 +27,20 @@ class StepRecord:
     certificate: dict | None  # Mode I's feasibility verdict (verdict, method, violation m, seconds)
     switch: str | None  # why the step left Mode I
     impact_force: float | None = None  # N: the planned contact's predicted peak tip force
+    overrun: bool = False  # the computation took longer than the declared latency
 
 
 @dataclass(frozen=True)
 class ModeTiming:
-    """A mode's step computation times [s] (the loop's wall-clock timing of step())."""
+    """A mode's step computation times [s] (the loop's wall-clock timing of step()) and its overruns
+    (steps that took longer than the declared latency)."""
 
     steps: int
     median_s: float
     p95_s: float
     max_s: float
+    p99_s: float = float("nan")
+    overruns: int = 0
 
 
 @dataclass(frozen=True)
