@@ -195,3 +195,20 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene) 
     with pytest.raises(ValueError, match="allowed") as err:
         SwitchingController().reset(replace(task, latency=0.15))
     assert "\n" not in str(err.value)
+
+
+def test_a_failed_solve_returns_and_reports_the_shifted_plan(params, scene) -> None:
+    """Mode I plans on an avoidable approach; its next solve is made to fail: the step's input is
+    the previous plan's second input, and the plan it reports (what the strict real-time loop
+    commits to, validation.closed_loop) is the previous plan shifted by one interval, so that its
+    first row is the input returned and its next row the one after (oracle: the first plan)."""
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, wall_approach(1.0, 0.3))
+    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(switching=False))
+    _, first = ctl.step(h, 0.0)
+    solve = ctl.mode1.solve
+    ctl.mode1.solve = lambda *a, **k: replace(solve(*a, **k), status=SolverStatus.FAILED)
+    u, info = ctl.step(first.h_pred[1], 0.1)
+    assert info.fallback is Fallback.SHIFTED_PLAN
+    np.testing.assert_array_equal(u, np.clip(first.u_pred[1], *params.input_bounds()))
+    np.testing.assert_array_equal(info.u_pred, first.u_pred[1:])
