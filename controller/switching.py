@@ -140,6 +140,7 @@ class SwitchingNMPC:
             for plane in range(len(self.planes)):  # no assembly stall at the first switch, nor at a new N_p
                 for n in range(1, settings.mode2.horizon + 1):
                     self.ocp2(plane).solver(n)
+                    self.ocp2(plane).solver(n, warm=settings.mode2.warm_start)
                 self.ocp3(plane)
         self.mode = Mode.I
         self.contact: int | None = None
@@ -362,13 +363,15 @@ class SwitchingNMPC:
         self._reported_mode = Mode.II
         s, ocp, N = self.settings.mode2, self.ocp2(self.contact), self._horizon2
         previous = self._plan if isinstance(self._plan, ModeIISolution) else None
+        duals = None
         if previous is not None:
             us, dt = shifted_guess(previous, N)
             guess = (self._resimulate(h, us, dt), us, dt)
+            duals = ocp.shifted_duals(previous, N)
         else:
             guess = ocp.deploy_guess(h, N, self.current)
             N = len(guess[1])
-        sol = ocp.solve(h, guess, self.current)
+        sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
         iters = sol.iterations
         if sol.status.usable:
