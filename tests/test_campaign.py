@@ -201,3 +201,17 @@ def test_compare_reads_an_older_campaigns_fewer_columns(tmp_path, capsys) -> Non
     assert main(["compare", str(tmp_path / "A"), str(tmp_path / "B")]) == 0
     out = capsys.readouterr().out
     assert "0 / 3 / 0 / 0" in out and "p = 0.25" in out
+
+
+def test_results_md_sums_each_modes_overruns_over_the_runs() -> None:
+    """Under a latency, results.md gives per mode the overran steps over all steps of a controller's
+    runs (closed form: 1 + 2 of 4 + 6 in Mode II is 3 of 10, 30%); a mode no run entered is "-",
+    and without a latency the table is left out."""
+    from validation import report
+
+    rows = [{"scenario": "wall-headon", "controller": "c", "seed": s, "verdict": "success", "latency": "0.05:strict",
+             "steps_I": 5, "overruns_I": 0, "steps_II": n, "overruns_II": k, "steps_III": "", "overruns_III": ""}
+            for s, (n, k) in enumerate(((4, 1), (6, 2)))]
+    md = report.markdown(rows)
+    assert "| I | 0 of 10 (0%) |" in md and "| II | 3 of 10 (30%) |" in md and "| III | - |" in md
+    assert "overran" not in report.markdown([{**r, "latency": "none"} for r in rows])

@@ -69,7 +69,11 @@ def execute(job: Job) -> dict[str, Any]:
         return {"row": _row(job, verdict="error", reason=f"{type(e).__name__}: {e}".splitlines()[0]), "summary": None}
     row = _row(job, **{k: s[k] for k in results.FIELDS if k in s and k not in ("scenario", "controller", "seed")})
     row["modes"] = " > ".join(s["modes"])
-    row.update({f"step_p95_{m}_ms": 1e3 * s["solve_time"][m]["p95_s"] for m in MODES if m in s["solve_time"]})
+    for m in MODES:
+        if m in s["solve_time"]:
+            timing = s["solve_time"][m]
+            row.update({f"step_p95_{m}_ms": 1e3 * timing["p95_s"], f"steps_{m}": timing["steps"],
+                        f"overruns_{m}": timing["overruns"]})
     return {"row": row, "summary": s}
 
 

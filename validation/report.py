@@ -103,6 +103,15 @@ def markdown(rows: Sequence[dict[str, Any]]) -> str:
               "runs (the largest):", "", "| mode | " + " | ".join(controllers) + " |",
               "|" + "---|" * (len(controllers) + 1)]
     lines += [f"| {m} | " + " | ".join(p95(c, m) for c in controllers) + " |" for m in MODES]
+    if delays:
+        def overran(c: str, m: str) -> str:
+            mine = [r for r in rows if r["controller"] == c and r.get(f"steps_{m}") not in (None, "")]
+            steps, late = (sum(int(r[f"{k}_{m}"]) for r in mine) for k in ("steps", "overruns"))
+            return f"{late} of {steps} ({100 * late / steps:.0f}%)" if steps else "-"
+
+        lines += ["", "Steps that overran the latency, per mode, over the runs:", "",
+                  "| mode | " + " | ".join(controllers) + " |", "|" + "---|" * (len(controllers) + 1)]
+        lines += [f"| {m} | " + " | ".join(overran(c, m) for c in controllers) + " |" for m in MODES]
     return "\n".join(lines) + "\n"
 
 

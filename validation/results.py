@@ -19,8 +19,10 @@ from typing import Any
 FIELDS = ("scenario", "controller", "seed", "verdict", "modes", "min_hull_distance", "hull_contact_impulse",
           "ee_peak_contact_force", "link_contact_impulse", "max_total_thrust_along_wall_normal",
           "final_task_error", "fallbacks", "switches", "overruns", "wall_clock_s", "step_p95_I_ms", "step_p95_II_ms",
-          "step_p95_III_ms", "latency", "reason")
-TIMING_FIELDS = ("wall_clock_s", "step_p95_I_ms", "step_p95_II_ms", "step_p95_III_ms")
+          "step_p95_III_ms", "steps_I", "steps_II", "steps_III", "overruns_I", "overruns_II", "overruns_III",
+          "latency", "reason")
+TIMING_FIELDS = ("wall_clock_s", "step_p95_I_ms", "step_p95_II_ms", "step_p95_III_ms", "overruns", "overruns_I",
+                 "overruns_II", "overruns_III")
 CSV, PLAN = "results.csv", "plan.json"
 
 Key = tuple[str, str, int]  # scenario, controller, seed
