@@ -206,12 +206,9 @@ class SwitchingNMPC:
         return int(np.argmin(worst))
 
     def predict(self, h: np.ndarray, u: np.ndarray, seconds: float) -> np.ndarray:
-        """The state `seconds` after h with the input u held (the model's RK4 in 4 substeps, with the
-        current the model assumes), in Modes I and II; in Mode III h itself. The model has no contact
-        dynamics to predict the tip on the wall with: free flight drove it through the plane and
-        Mode III then pulled it back, a bounce (arm-deployed seed 23 at 0.05 s: the tip 13 cm off
-        the wall, then back at 420 N; 125 N planning from the measured state)."""
-        if seconds <= 0.0 or self.mode is Mode.III:
+        """The state `seconds` after h with the input u held, in free flight (the model's RK4 in 4
+        substeps, with the current the model assumes)."""
+        if seconds <= 0.0:
             return np.asarray(h, float)
         return self._resimulate(h, np.asarray(u, float)[None], seconds)[-1]
 
@@ -232,16 +229,21 @@ class SwitchingNMPC:
         return np.array(hs)
 
     # ------------------------------------------------------------------------------------------
-    def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, StepInfo]:
-        """The input u (thruster forces N, joint torques N m) to hold for info.dt seconds."""
+    def step(self, h: np.ndarray, t: float, ahead: tuple[np.ndarray, float] | None = None
+             ) -> tuple[np.ndarray, StepInfo]:
+        """The input u (thruster forces N, joint torques N m) to hold for info.dt seconds. `ahead`:
+        the state predicted for when the input will act, and that time [s] (`predict`; None: h, t).
+        Modes I and II plan from it and the check that the tip reached the plane reads it; Mode III
+        and the release check read the measured h (the model has no contact to predict with)."""
         h = np.asarray(h, float)
         if h.shape != (self.model.n_states,) or not np.all(np.isfinite(h)):
             raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
                              f"{self.model.n_states} finite numbers")
+        h_a, t_a = (h, t) if ahead is None else (np.asarray(ahead[0], float), float(ahead[1]))
         distances, closing = self._geometry(h)
         if self.mode is Mode.III and self._reported_mode is Mode.III and self._may_release(h, closing):
             self.mode, self._plan = Mode.I, None
-        if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h):
+        if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h_a):
             if closing[self.contact, 0] > self.settings.separation_speed:  # no contact needed: the certificate decides
                 self.mode, self._plan = Mode.I, None
             else:  # Mode II afresh: Algorithm 1's entry from the measured state
@@ -249,9 +251,9 @@ class SwitchingNMPC:
         t0 = time.perf_counter()
         self._switch, self._ocp_time = None, 0.0
         if self.mode is Mode.I:
-            out = self._step_mode1(h, t)
+            out = self._step_mode1(h_a, t_a)
         elif self.mode is Mode.II:
-            out = self._step_mode2(h)
+            out = self._step_mode2(h_a)
         else:
             out = self._step_mode3(h)
         self.last_u = np.clip(out.u, self.lo, self.hi)
@@ -428,11 +430,12 @@ class SwitchingController:
     least `contact_clearance` off every plane (a contact's force would read as a current), and held
     otherwise (and always without a latency: the observer assumes one input per interval).
 
-    With a task latency L > 0 and `plan_for_latency`, each step after the first plans from the state
-    predicted L after the measured one under the input it returned last, which acts meanwhile
-    (SwitchingNMPC.predict; in Mode III from the measured state), for the reference at t + L; Mode
-    II's intervals are at least L long (dt_bounds and dt_nominal raised to L), so that each input
-    acts for as long as it was planned.
+    With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
+    after the measured one under the input it returned last, which acts meanwhile, in free flight
+    (SwitchingNMPC.predict): Modes I and II plan from it for the reference at t + L, and Mode III's
+    entry check reads the tip there; Mode III plans from the measured state (SwitchingNMPC.step
+    says why). Mode II's intervals are at least L long (dt_bounds and dt_nominal raised to L), so
+    that each input acts for as long as it was planned.
     Algorithm 1's horizon rule is unchanged: the plan of the next step starts one interval later,
     as without a delay. L may not exceed Modes I's and III's interval."""
 
@@ -482,9 +485,8 @@ class SwitchingController:
             known = known + self.observer.estimate
         self.nmpc.current = known
         if self._started and self.latency > 0.0:  # the first step's input acts at once
-            u, info = self.nmpc.step(self.nmpc.predict(h, self.nmpc.last_u, self.latency), t + self.latency)
-            distances, closing = self.nmpc._geometry(np.asarray(h, float))
-            info = replace(info, t=t, distances=distances, closing_speeds=closing)
+            ahead = self.nmpc.predict(h, self.nmpc.last_u, self.latency), t + self.latency
+            u, info = self.nmpc.step(h, t, ahead)
         else:
             u, info = self.nmpc.step(h, t)
         self._started = True
