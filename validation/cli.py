@@ -76,6 +76,9 @@ def _print_summary(s: Summary) -> None:
             ("step time median / p95 [ms]", ", ".join(f"{m}: {1e3 * v.median_s:.0f} / {1e3 * v.p95_s:.0f}"
                                                       for m, v in s.solve_time.items())),
             ("simulated / wall clock [s]", f"{s.simulated_s:.1f} / {s.wall_clock_s:.1f}")]
+    if s.latency != "none":
+        rows.insert(-1, (f"steps over the latency {s.latency}", ", ".join(
+            f"{m}: {v.overruns} of {v.steps}" for m, v in s.solve_time.items())))
     width = max(len(k) for k, _ in rows)
     for k, v in rows:
         print(f"{k:<{width}}  {v}")
