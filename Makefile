@@ -33,6 +33,9 @@ bench: $(VENV)/.installed
 	$(PY) bench/min_violation_stop.py --record 2
 	$(PY) bench/min_violation_stop.py
 	$(PY) bench/campaign_throughput.py
+	$(PY) bench/mode2_warm_start.py --record 6
+	$(PY) bench/mode2_warm_start.py
+	$(PY) bench/step_times.py
 
 assets: $(VENV)/.installed
 	$(PY) -m uvms_mj.export

@@ -45,3 +45,28 @@ def test_mode3_recorder_records_mode_three_problems() -> None:
     original = scenarios.SCENARIOS["wall-headon"]
     calls = bench.record_problems(replace(original, duration=0.8), 0, "switching")
     assert calls and all(c["contact"] == 0 and np.all(c["lo"] <= c["hi"]) for c in calls)
+
+
+@pytest.mark.slow
+def test_mode2_recorder_records_warm_startable_problems() -> None:
+    """bench/mode2_warm_start.py's recorder on the demo's run (wall-headon, seed 0, Mode II after the
+    switch for several steps): every problem it records comes with the previous solve's resampled
+    multipliers, and one replayed warm gives a plan of the guess's horizon. Oracle: the problem's
+    own layout (multipliers of the problem's constraint and variable counts)."""
+    from controller.mode2 import ModeIIOCP
+    from controller.model import UVMSModel
+    from uvms import load_params, load_scene
+
+    bench = _load("mode2_warm_start")
+    calls = bench._record_run(("wall-headon", 0))
+    assert calls
+    scene = load_scene()
+    ocp = ModeIIOCP(UVMSModel(load_params(), scene.water), scene.planes, calls[0]["contact"])
+    ocp.limit_inputs(calls[0]["lo"], calls[0]["hi"])
+    us = calls[0]["guess"][1]
+    N = len(us)
+    nz = ocp.ns + 1 + ocp.nu + ocp.nv
+    lam_g, lam_x = calls[0]["duals"]
+    assert len(lam_x) == N * nz + ocp.ns + 1 and (len(lam_g) - ocp.ns - 1) % N == 0
+    sol = ocp.solve(calls[0]["h0"], calls[0]["guess"], calls[0]["current"], calls[0]["duals"])
+    assert sol.u.shape == us.shape
