@@ -246,7 +246,7 @@ class SwitchingNMPC:
         if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h_a):
             if closing[self.contact, 0] > self.settings.separation_speed:  # no contact needed: the certificate decides
                 self.mode, self._plan = Mode.I, None
-            else:  # Mode II afresh: Algorithm 1's entry from the measured state
+            else:  # Mode II afresh: Algorithm 1's entry
                 self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         t0 = time.perf_counter()
         self._switch, self._ocp_time = None, 0.0
@@ -428,7 +428,7 @@ class SwitchingController:
     the model's current is the known one plus controller.estimator's estimate of the rest, updated
     from each pair of measured states while the previous step was Mode I's with every body at
     least `contact_clearance` off every plane (a contact's force would read as a current), and held
-    otherwise (and always without a latency: the observer assumes one input per interval).
+    otherwise; under a latency it is never updated (it assumes one input over each interval).
 
     With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
     after the measured one under the input it returned last, which acts meanwhile, in free flight
@@ -437,7 +437,7 @@ class SwitchingController:
     says why). Mode II's intervals are at least L long (dt_bounds and dt_nominal raised to L), so
     that each input acts for as long as it was planned.
     Algorithm 1's horizon rule is unchanged: the plan of the next step starts one interval later,
-    as without a delay. L may not exceed Modes I's and III's interval."""
+    as without a delay. L may not exceed Mode I's or Mode III's interval."""
 
     settings_type = SwitchingSettings
     contact_clearance = 0.02  # m

@@ -4,6 +4,7 @@ the same rows on a Dask cluster as on the local pool, and the paired test of two
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -74,11 +75,9 @@ def _run_processes(pid: int) -> set[int]:
     exits while being looked at (a zombie, or gone) is skipped: it ended on its own."""
     found = set()
     for child in psutil.Process(pid).children():
-        try:
+        with contextlib.suppress(psutil.ZombieProcess, psutil.NoSuchProcess):
             if "validation.isolated" in " ".join(child.cmdline()):
                 found.add(child.pid)
-        except (psutil.ZombieProcess, psutil.NoSuchProcess):
-            pass
     return found
 
 
