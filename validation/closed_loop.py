@@ -249,7 +249,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
                 u, period = committed.take(u_prev)
                 info = replace(info, dt=period, fallback=LATE, h_pred=None, u_pred=None, contact_force=None)
             else:
-                committed.accept(u, info)
+                committed.accept(info)
             dt = max(ts, round(info.dt / ts) * ts)
             delay = 0.0 if undelayed else round((computed if spec.seconds is None else spec.seconds) / ts) * ts
             segments = [(u_prev, delay), (u, dt - delay)] if delay > 0 else [(u, dt)]
@@ -302,7 +302,7 @@ class Committed:
         self.inputs: list[np.ndarray] = []
         self.period = 0.0
 
-    def accept(self, u: np.ndarray, info: StepInfo) -> None:
+    def accept(self, info: StepInfo) -> None:
         """A step's answer is applied: its plan's later rows are what it commits to."""
         plan = [] if info.u_pred is None else list(np.asarray(info.u_pred, float)[1:])
         self.inputs, self.period = [np.asarray(row, float) for row in plan], float(info.dt)
