@@ -32,7 +32,6 @@ import casadi as ca
 import numpy as np
 
 from controller.kinematics import euler_zyx
-from controller.mode1 import PITCH
 from controller.model import UVMSModel
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import (
@@ -61,10 +60,6 @@ class ModeIIISettings:
     hull_clearance: float = 0.05  # m: J_III also pays for the hull closer than this to the contact plane
     clearance_weight: float = 1.0  # 1/s, on that shortfall (the approach speed's weights are 1 to 2)
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
-    attitude_weight: float = 0.0  # 1/(s rad^2), on the hull's roll, pitch and yaw change over the plan
-    # rad: |pitch| at nodes 1..N, or |pitch0| when the measured pitch h0 is beyond it (Mode I's bound: the
-    # ZYX Euler rates are singular at +-pi/2). None: no bound.
-    pitch_limit: float | None = 1.2
     max_iter: int = 200
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
@@ -92,21 +87,17 @@ def friction_rows(model: UVMSModel, Rw: np.ndarray, hm: ca.SX, F: ca.SX, s: Mode
 
 
 def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi: ca.SX, s: ModeIIISettings,
-               clearance: ca.SX | float | None = None, weight: ca.SX | float | None = None,
-               attitude: ca.SX | float | None = None, yaw0: ca.SX | float = 0.0) -> ca.SX:
+               clearance: ca.SX | float | None = None, weight: ca.SX | float | None = None) -> ca.SX:
     """J_III's stage term at the interval's end state h1 (stage weight wi), the hull's shortfall from
-    `clearance` [m] weighted by `weight` [1/s], its roll, pitch and yaw change from yaw0 [rad]
-    weighted by `attitude` [1/(s rad^2)] (None: the settings'), and the regularization."""
+    `clearance` [m] weighted by `weight` [1/s] (None: the settings'), and the regularization."""
     clearance = s.hull_clearance if clearance is None else clearance
     weight = s.clearance_weight if weight is None else weight
-    attitude = s.attitude_weight if attitude is None else attitude
     d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
     d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
     rates = h1[model.n_speeds + 3 :]  # hull angular and joint rates
     return (
         wi * smooth_relu(-d0_dot, s.approach_smoothing)
         + weight * smooth_relu(clearance - d0, s.clearance_smoothing)
-        + attitude * (h1[3] ** 2 + h1[4] ** 2 + (h1[5] - yaw0) ** 2)
         + s.input_weight * ca.dot(u, u)
         + s.force_weight * ca.dot(F, F)
         + s.rate_weight * ca.dot(rates, rates)
@@ -130,8 +121,8 @@ class ModeIIIOCP:
             ca.SX.sym("a", nv),
             ca.SX.sym("F", 3),
         )
-        P = ca.SX.sym("P", ns + 3 + 3 + 1)  # h0, current, hull clearance, its weight, attitude weight, w_i
-        vc, wi = P[ns : ns + 3], P[ns + 6]
+        P = ca.SX.sym("P", ns + 3 + 2 + 1)  # h0, current, hull clearance and its weight, stage weight w_i
+        vc, wi = P[ns : ns + 3], P[ns + 5]
         hm = (h + h1) / 2
         friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
@@ -142,13 +133,13 @@ class ModeIIIOCP:
             friction,
             self._clearance(h1),
         )
-        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + 3], P[ns + 4], P[ns + 5], P[5])
+        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + 3], P[ns + 4])
         st = ca.vertcat(h, u, a, F, h1)
         problem = StageProblem(
             nx=ns,
             nv=nu + nv + 3,
             horizon=N,
-            np=ns + 6,
+            np=ns + 5,
             np_stage=1,
             cost=ca.Function("cost3", [st, P], [cost]),
             constraints=ca.Function("cons3", [st, P], [cons]),
@@ -321,12 +312,7 @@ class ModeIIIOCP:
         warm-start solver, else by the cold one (Algorithm 2's guess)."""
         lbw, ubw = self.bounds()
         s = self.settings
-        if s.pitch_limit is not None:
-            limit = max(s.pitch_limit, abs(float(h0[PITCH])))
-            rows = np.arange(1, s.horizon + 1) * self.nz + PITCH
-            lbw[rows], ubw[rows] = -limit, limit
-        P = np.concatenate([h0, np.zeros(3) if current is None else current,
-                            [s.hull_clearance, s.clearance_weight, s.attitude_weight],
+        P = np.concatenate([h0, np.zeros(3) if current is None else current, [s.hull_clearance, s.clearance_weight],
                             self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
         solver = self.solver

@@ -80,13 +80,8 @@ class SwitchingSettings:
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     observe_current: bool = False  # add controller.estimator's estimate of the unknown current (SwitchingController)
-    observe_modes: tuple[str, ...] = ("I",)  # the modes whose free-flight periods update the estimate
     observer: ObserverSettings = field(default_factory=ObserverSettings)
     plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
-
-    def __post_init__(self) -> None:
-        if not set(self.observe_modes) <= {m.value for m in Mode}:
-            raise ValueError(f"observe_modes {self.observe_modes}; allowed: some of {', '.join(m.value for m in Mode)}")
 
 
 @dataclass(frozen=True)
@@ -495,7 +490,7 @@ class SwitchingController:
         else:
             u, info = self.nmpc.step(h, t)
         self._started = True
-        free = info.mode.value in self.settings.observe_modes and info.distances is not None and bool(
+        free = info.mode is Mode.I and info.distances is not None and bool(
             np.min(info.distances) > self.contact_clearance)
         self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
         return u, info
