@@ -54,7 +54,6 @@ class ModeIIISettings:
     friction_smoothing: float = 0.01  # m/s, delta
     approach_smoothing: float = 0.01  # m/s, the relu of J_III (curvature 1/this at d0_dot = 0)
     distance_margin: float = 0.005  # m
-    force_fraction: float = 1.0  # of the jaws' tip_force_limit: the largest planned normal force
     # m: with the tip further than this off the plane at h0, the first interval plans no contact force:
     # the wall cannot push before the tip touches it, and the torques that were to hold the arm against
     # a planned force would throw the tip onto the wall (experiments/mode3_first_interval). None: the
@@ -207,8 +206,7 @@ class ModeIIIOCP:
                 lbw[i + 6 : i + 6 + n], ubw[i + 6 : i + 6 + n] = self._q_lo, self._q_hi
             if k < N:
                 lbw[i + ns : i + ns + nu], ubw[i + ns : i + ns + nu] = self._lo_u, self._hi_u
-                lbw[i + nz - 3] = 0.0  # F_n
-                ubw[i + nz - 3] = self.settings.force_fraction * self.model.params.arm.tip_force_limit
+                lbw[i + nz - 3], ubw[i + nz - 3] = 0.0, self.model.params.arm.tip_force_limit  # F_n
         return lbw, ubw
 
     # ------------------------------------------------------------------------------------------

@@ -79,9 +79,6 @@ class SwitchingSettings:
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
-    # m/s: Mode III plans for the assumed current plus this much more onto the contact plane (the
-    # worst plausible unknown current: the arm must hold what the model is not told of)
-    contact_current_margin: float = 0.0
     observe_current: bool = False  # add controller.estimator's estimate of the unknown current (SwitchingController)
     observer: ObserverSettings = field(default_factory=ObserverSettings)
     plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
@@ -216,7 +213,7 @@ class SwitchingNMPC:
         return self._resimulate(h, np.asarray(u, float)[None], seconds)[-1]
 
     def _resimulate(self, h0: np.ndarray, us: np.ndarray, dt: float, forces: np.ndarray | None = None,
-                    ocp3: ModeIIIOCP | None = None, current: np.ndarray | None = None) -> np.ndarray:
+                    ocp3: ModeIIIOCP | None = None) -> np.ndarray:
         """The Final Algorithm's state trajectory of the inputs (RK4, 4 substeps per interval); with
         Mode III's contact forces and OCP, each node is put back on the plane."""
         if forces is None:
@@ -226,7 +223,7 @@ class SwitchingNMPC:
             h = hs[-1]
             for _ in range(4):
                 h = self.model.step(h, uk, dt / 4, Fw=np.concatenate([forces[k], np.zeros(3)]), Rw=ocp3.Rw,
-                                    vc=self.current if current is None else current)
+                                    vc=self.current)
             h[6:6 + self.model.n_joints] = ocp3.onto_plane(h)
             hs.append(h)
         return np.array(hs)
@@ -398,19 +395,18 @@ class SwitchingNMPC:
         self._reported_mode = Mode.III
         s, ocp = self.settings.mode3, self.ocp3(self.contact)
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
-        current = self.current - self.settings.contact_current_margin * np.asarray(self.planes[self.contact].normal)
         if previous is not None:  # the Final Algorithm: the plan's recomputed states, shifted, from h
             us = np.vstack([previous.u[1:], previous.u[-1:]])
             Fs = np.vstack([previous.force[1:], previous.force[-1:]])
             guess = ocp.pack(np.vstack([h, self._recomputed[2:], self._recomputed[-1:]]), us, Fs)
             duals = ocp.shifted_duals(previous)
         else:  # Algorithm 2
-            guess = ocp.contact_guess(h, np.repeat(self.last_u[None], s.horizon, 0), None, current)
+            guess = ocp.contact_guess(h, np.repeat(self.last_u[None], s.horizon, 0), None, self.current)
             duals = None
-        sol = ocp.solve(h, guess, current, duals)
+        sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
         if sol.status.usable:
-            self._plan, self._recomputed = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp, current)
+            self._plan, self._recomputed = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp)
             return _ModeStep(sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
                              self._recomputed, sol.u, sol.force)
         self._plan = None
