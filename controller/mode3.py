@@ -54,11 +54,6 @@ class ModeIIISettings:
     friction_smoothing: float = 0.01  # m/s, delta
     approach_smoothing: float = 0.01  # m/s, the relu of J_III (curvature 1/this at d0_dot = 0)
     distance_margin: float = 0.005  # m
-    # m: with the tip further than this off the plane at h0, the first interval plans no contact force:
-    # the wall cannot push before the tip touches it, and the torques that were to hold the arm against
-    # a planned force would throw the tip onto the wall (experiments/mode3_first_interval). None: the
-    # paper's (the force from the first interval on)
-    force_free_gap: float | None = 0.003
     input_weight: float = 1e-5  # 1/N^2
     force_weight: float = 1e-6  # 1/N^2
     rate_weight: float = 1e-3  # s^2/rad^2, on the hull's angular and the joints' rates
@@ -317,9 +312,6 @@ class ModeIIIOCP:
         warm-start solver, else by the cold one (Algorithm 2's guess)."""
         lbw, ubw = self.bounds()
         s = self.settings
-        gap = float(tip_gap(self.model, h0, self.planes[self.contact]))
-        if s.force_free_gap is not None and gap > s.force_free_gap:
-            ubw[self.nz - 3] = 0.0  # F_n of the first interval (its friction rows then zero F_t)
         P = np.concatenate([h0, np.zeros(3) if current is None else current, [s.hull_clearance, s.clearance_weight],
                             self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
