@@ -54,6 +54,13 @@ class ModeIIISettings:
     friction_smoothing: float = 0.01  # m/s, delta
     approach_smoothing: float = 0.01  # m/s, the relu of J_III (curvature 1/this at d0_dot = 0)
     distance_margin: float = 0.005  # m
+    # m: with the tip further than this off the plane at h0, and live thrusters that can push the
+    # hull away from the plane, the first interval plans no contact force: the wall cannot push
+    # before the tip touches it, and the torques meant to hold the arm against a planned force
+    # throw the tip onto the wall (experiments/mode3_first_interval). Without such thrust the arm
+    # is the hull's only brake and the force stays planned. None: the paper's (force from the first
+    # interval on)
+    force_free_gap: float | None = 0.003
     input_weight: float = 1e-5  # 1/N^2
     force_weight: float = 1e-6  # 1/N^2
     rate_weight: float = 1e-3  # s^2/rad^2, on the hull's angular and the joints' rates
@@ -223,6 +230,15 @@ class ModeIIIOCP:
             held = float(np.min(np.where(arm > 1e-9, self._tau_max / arm, np.inf))) if n else 0.0
         return min(held, self.model.params.arm.tip_force_limit)
 
+    def away_thrust(self, h: np.ndarray) -> float:
+        """The largest force [N] the thrusters, within their bounds (0 for known-failed ones), can
+        put on the hull along the contact plane's normal, away from the plane, in attitude h."""
+        p = self.model.params
+        R = np.asarray(ca.DM(euler_zyx(*h[3:6])))
+        along = (R.T @ self.planes[self.contact].normal) @ p.allocation_matrix()[:3]
+        nt = p.n_thrusters
+        return float(np.sum(np.maximum(along * self._lo_u[:nt], along * self._hi_u[:nt])))
+
     def stopping_force(self, h: np.ndarray) -> float:
         """Algorithm 2's force, bounded: the smaller of the torque-limited pushing force and the
         normal force that stops the hull's approach within one interval (effective mass along the
@@ -312,6 +328,9 @@ class ModeIIIOCP:
         warm-start solver, else by the cold one (Algorithm 2's guess)."""
         lbw, ubw = self.bounds()
         s = self.settings
+        if s.force_free_gap is not None and self.away_thrust(h0) > 0.0 \
+                and float(tip_gap(self.model, h0, self.planes[self.contact])) > s.force_free_gap:
+            ubw[self.nz - 3] = 0.0  # F_n of the first interval (its friction rows then zero F_t)
         P = np.concatenate([h0, np.zeros(3) if current is None else current, [s.hull_clearance, s.clearance_weight],
                             self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}

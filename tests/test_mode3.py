@@ -119,3 +119,56 @@ def test_clearance_term_pushes_a_hull_that_is_too_close_back_out(params, scene) 
     s = ModeIIISettings()
     assert ends[0] >= 0.18 - s.clearance_smoothing / 2
     assert ends[1] < 0.18
+
+
+def test_away_thrust_is_the_best_vertex_of_the_thrust_box(params, scene) -> None:
+    """The thrust the hull can put along the wall's normal, away from it: a linear program over the
+    box of thruster forces, whose optimum is a vertex; enumerated over all 2^8 vertices in a yawed,
+    pitched attitude it agrees to 1e-9 N (rounding). Every thruster known dead: 0 N."""
+    import itertools
+
+    model = UVMSModel(params, scene.water)
+    ocp = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings())
+    h, _ = initial_state(params, wall_approach(0.35, 0.3))
+    h[3:6] = [0.1, -0.3, 0.7]
+    lo, hi = params.input_bounds()
+    nt = params.n_thrusters
+    R = np.asarray(euler_zyx_np(h[3:6]))
+    away = R @ params.allocation_matrix()[:3]
+    box = itertools.product(*zip(lo[:nt], hi[:nt], strict=True))
+    best = max(scene.planes[0].normal @ away @ np.array(f) for f in box)
+    assert ocp.away_thrust(h) == pytest.approx(best, abs=1e-9)
+    lo[:nt] = hi[:nt] = 0.0
+    ocp.limit_inputs(lo, hi)
+    assert ocp.away_thrust(h) == 0.0
+
+
+def euler_zyx_np(rpy: np.ndarray) -> np.ndarray:
+    """R = Rz Ry Rx (body to world) from elementary rotations, independent of controller.kinematics."""
+    (cf, sf), (ct, st), (cp, sp) = ((np.cos(a), np.sin(a)) for a in rpy)
+    Rx = np.array([[1, 0, 0], [0, cf, -sf], [0, sf, cf]])
+    Ry = np.array([[ct, 0, st], [0, 1, 0], [-st, 0, ct]])
+    Rz = np.array([[cp, -sp, 0], [sp, cp, 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx
+
+
+@pytest.mark.slow
+def test_first_interval_is_force_free_while_the_tip_is_off_the_wall_and_thrusters_live(contact_case, params,
+                                                                                         scene) -> None:
+    """`force_free_gap`: from the contact case with the hull 2 cm further out (tip 2 cm off the wall),
+    the first interval's planned normal force is 0 (its bound; 1e-8 N, IPOPT's bound push) when the
+    thrusters live; with every thruster dead the arm is the hull's only brake and the same solve
+    plans a push from the first interval on (above 1 N)."""
+    model, dead, h = contact_case
+    h = h.copy()
+    h[0] -= 0.02
+    assert float(tip_gap(model, h, scene.planes[0])) > 0.015
+    live = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings())
+    first = []
+    for ocp in (live, dead):
+        guess = ocp.contact_guess(h, np.zeros((ocp.settings.horizon, model.n_inputs)), None)
+        sol = ocp.solve(h, guess)
+        assert sol.status.usable
+        first.append(sol.force[0, 0])
+    assert abs(first[0]) < 1e-8
+    assert first[1] > 1.0
