@@ -76,12 +76,8 @@ def rollout(model: UVMSModel, policy: BrakingPolicy, h0: np.ndarray, posture: np
     dt [s], integrated by the model's RK4 in `substeps`."""
     hs, us = [np.asarray(h0, float)], []
     for _ in range(steps):
-        u = policy(hs[-1], posture, current)
-        h = hs[-1]
-        for _ in range(substeps):
-            h = model.step(h, u, dt / substeps, vc=current)
-        hs.append(h)
-        us.append(u)
+        us.append(policy(hs[-1], posture, current))
+        hs.append(model.held_steps(hs[-1], us[-1], dt, substeps, vc=current))
     return np.array(hs), np.array(us)
 
 
