@@ -293,8 +293,9 @@ class UVMSModel:
         n = self.n_speeds
         return M.reshape(n, n, order="F").copy(), b.copy()
 
-    def held_steps(self, h, u, dt: float, substeps: int, vc=None) -> np.ndarray:
-        """`substeps` RK4 steps of dt / substeps [s] each, u held, no contact, in one compiled call:
+    def held_steps(self, h, u, dt: float, substeps: int, Fw=None, Rw=None, vc=None) -> np.ndarray:
+        """`substeps` RK4 steps of dt / substeps [s] each, u (and the contact wrench Fw in frame Rw,
+        as in `step`) held, in one compiled call:
         `step` called `substeps` times (the same C code for each step, so the same arithmetic),
         without its per-call overhead (about 4x fewer calls from Python in a rollout)."""
         if substeps not in self._held:
@@ -305,8 +306,8 @@ class UVMSModel:
             held = ca.Function(f"held{substeps}", args, [x])
             name = f"held{substeps}_{self.params.name}_{self.params.arm.name}"
             self._held[substeps] = NumpyCall(compiled([held], name)[held.name()])
-        Fw, Rw, vc, ac = self.defaults(None, None, vc, None)
-        return self._held[substeps](h, u, Fw, Rw.T, vc, ac, np.array([dt], float))[0].copy()
+        Fw, Rw, vc, ac = self.defaults(Fw, Rw, vc, None)
+        return self._held[substeps](h, u, Fw, np.asarray(Rw, float).T, vc, ac, np.array([dt], float))[0].copy()
 
 
 def _validate(p: UVMSParams) -> None:

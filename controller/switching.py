@@ -220,10 +220,8 @@ class SwitchingNMPC:
             return simulate(self.model, h0, us, dt, current=self.current)
         hs = [np.asarray(h0, float)]
         for k, uk in enumerate(us):
-            h = hs[-1]
-            for _ in range(4):
-                h = self.model.step(h, uk, dt / 4, Fw=np.concatenate([forces[k], np.zeros(3)]), Rw=ocp3.Rw,
-                                    vc=self.current)
+            h = self.model.held_steps(hs[-1], uk, dt, 4, Fw=np.concatenate([forces[k], np.zeros(3)]), Rw=ocp3.Rw,
+                                      vc=self.current)
             h[6:6 + self.model.n_joints] = ocp3.onto_plane(h)
             hs.append(h)
         return np.array(hs)

@@ -8,6 +8,7 @@ import pytest
 from oracles.rigid_body import MujocoOracle, PinocchioOracle
 
 from controller.model import ModelOptions, UVMSModel
+from controller.transcription import obstacle_frame
 from uvms import load_params
 
 RIGID = ModelOptions(buoyancy=False, added_mass=False, drag=False)
@@ -75,15 +76,18 @@ def test_forward_kinematics_and_jacobian_equal_both_oracles(setup) -> None:
 
 def test_held_steps_are_the_steps_in_one_call(scene) -> None:
     """UVMSModel.held_steps (the rollouts' interval: 4 RK4 substeps, input held, one compiled call)
-    against 4 calls of UVMSModel.step with the same input and a current: equal to the bit (the same
-    C code for each substep), on 20 random states and inputs within the bounds."""
+    against 4 calls of UVMSModel.step with the same input, a current and, on every other state, a
+    contact force in a tilted wall's frame: equal to the bit (the same C code for each substep), on
+    20 random states and inputs within the bounds."""
     p = load_params()
     model = UVMSModel(p, scene.water)
     rng = np.random.default_rng(4)
     lo, hi = p.input_bounds()
-    for h in random_states(p, 20, seed=4):
+    Rw = obstacle_frame(np.array([-0.8, 0.6, 0.0]))
+    for i, h in enumerate(random_states(p, 20, seed=4)):
         u, vc = rng.uniform(lo, hi), rng.normal(0, 0.2, 3)
+        Fw = np.concatenate([rng.uniform(0, 100, 1), rng.normal(0, 20, 2), np.zeros(3)]) if i % 2 else None
         x = h
         for _ in range(4):
-            x = model.step(x, u, 0.1 / 4, vc=vc)
-        assert np.array_equal(model.held_steps(h, u, 0.1, 4, vc=vc), x)
+            x = model.step(x, u, 0.1 / 4, Fw=Fw, Rw=Rw, vc=vc)
+        assert np.array_equal(model.held_steps(h, u, 0.1, 4, Fw=Fw, Rw=Rw, vc=vc), x)
