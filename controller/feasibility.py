@@ -32,7 +32,7 @@ import numpy as np
 
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution
 from controller.model import UVMSModel
-from controller.rollouts import BrakingPolicy, rollout, simulate
+from controller.rollouts import BrakingPolicy, simulate
 from controller.transcription import SolverStatus
 from uvms.scene import Plane
 
@@ -88,6 +88,7 @@ class FeasibilityTest:
             "warm_start_init_point": "no", "mu_init": certificate.mu_init, **settings.ipopt_options})
         self.problem = ModeIOCP(model, planes, cold, min_violation=True, stop=self.is_witness)
         self.braking = BrakingPolicy(model)
+        self.braking.compiled_rollout(settings.horizon, 4, False)  # compiled now, not at the first step
 
     def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Replace the input bounds of every problem and rollout (e.g. known-failed thrusters: both 0)."""
@@ -100,7 +101,7 @@ class FeasibilityTest:
         interval and integrated by RK4 in 4 substeps."""
         s = self.settings
         h0 = np.asarray(h0, float)
-        return rollout(self.model, self.braking, h0, h0[6:6 + self.model.n_joints], s.dt, s.horizon, current=current)
+        return self.braking.rollout(h0, h0[6:6 + self.model.n_joints], s.dt, s.horizon, current=current)
 
     def min_clearance(self, hs: np.ndarray) -> float:
         """Smallest clearance [m] over the nodes hs[1:] (states (N+1, ns)): the clearance function

@@ -39,6 +39,7 @@ import casadi as ca
 import numpy as np
 
 from controller import impact
+from controller.codegen import NumpyCall
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
@@ -144,6 +145,7 @@ class ModeIIOCP:
         self._q_hi = np.array([lk.joint_range[1] for lk in p.arm.links])
         self.reach = ReachPosture(model, plane)
         self.deploy = BrakingPolicy(model, JointHold(s.deploy_stiffness, s.deploy_damping))
+        self._gap_maps: dict[int, NumpyCall] = {}
 
     def protected_clearance(self, h: np.ndarray) -> float:
         """Smallest clearance [m] of what Mode II keeps off the planes (every body and the tip, except
@@ -187,29 +189,40 @@ class ModeIIOCP:
         furthest towards the contact plane (computed torque + PD). The rollout's time to contact
         t_c sets the horizon as Algorithm 1 does for later steps, N_p = ceil(t_c / dt_nom) (at most
         N_max; N_max and dt_max if the tip never reaches the plane), and dt = t_c / N_p."""
-        s, plane = self.settings, self.planes[self.contact]
+        s = self.settings
         posture = self.reach(h0)
-        fine, h, t_contact = 0.01, np.asarray(h0, float), None
-        for i in range(math.ceil(N_max * s.dt_bounds[1] / fine)):
-            h = self.model.step(h, self.deploy(h, posture, current), fine, vc=current)
-            if float(tip_gap(self.model, h, plane)) <= 0.0:
-                t_contact = (i + 1) * fine
-                break
+        fine, h0 = 0.01, np.asarray(h0, float)
+        hs, _ = self.deploy.rollout(h0, posture, fine, self._fine_steps(N_max), 1, current, every_substep=True)
+        hit = np.flatnonzero(self._gaps(N_max)(hs[1:])[0] <= 0.0)  # column-major (ns, n): the rows of hs
+        t_contact = (hit[0] + 1) * fine if hit.size else None
         N = min(N_max, next_horizon(2, t_contact, s.dt_nominal)) if t_contact else N_max
         dt = float(np.clip(t_contact / N if t_contact else s.dt_bounds[1], *s.dt_bounds))
         # The policy is stiff (computed torque + PD): held over a whole interval it goes unstable and
         # swings the arm through the wall, so it acts every substep and each interval's input is its mean.
-        m = math.ceil(dt / fine)
-        hs, us = [np.asarray(h0, float)], []
-        for _ in range(N):
-            h, u_sum = hs[-1], 0.0
-            for _ in range(m):
-                u = self.deploy(h, posture, current)
-                h = self.model.step(h, u, dt / m, vc=current)
-                u_sum = u_sum + u
-            hs.append(h)
-            us.append(u_sum / m)
-        return np.array(hs), np.array(us), dt
+        hs, us = self.deploy.rollout(h0, posture, dt, N_max, math.ceil(dt / fine), current, every_substep=True)
+        return hs[:N + 1], us[:N], dt
+
+    def _fine_steps(self, N_max: int) -> int:
+        """The 0.01 s steps of `deploy_guess`'s search for the time to contact over N_max intervals."""
+        return math.ceil(N_max * self.settings.dt_bounds[1] / 0.01)
+
+    def _gaps(self, N_max: int) -> NumpyCall:
+        """The tip's gap to the contact plane [m] at each state of `deploy_guess`'s fine rollout."""
+        n = self._fine_steps(N_max)
+        if n not in self._gap_maps:
+            h = ca.SX.sym("h", self.ns)
+            gap = ca.Function("gap2", [h], [tip_gap(self.model, h, self.planes[self.contact])])
+            self._gap_maps[n] = NumpyCall(gap.map(n))
+        return self._gap_maps[n]
+
+    def prepare_guesses(self, N_max: int) -> None:
+        """Compile `deploy_guess`'s rollouts for N_max (every substep count its dt_bounds allow) now,
+        not at the first switch (about 10 s each on a cache miss, then loaded from disk)."""
+        s, fine = self.settings, 0.01
+        self.deploy.compiled_rollout(self._fine_steps(N_max), 1, True)
+        for m in range(max(1, math.floor(s.dt_bounds[0] / fine)), math.ceil(s.dt_bounds[1] / fine) + 1):
+            self.deploy.compiled_rollout(N_max, m, True)
+        self._gaps(N_max)
 
     def pack(self, hs: np.ndarray, us: np.ndarray, dt: float) -> np.ndarray:
         N, nv = len(us), self.nv

@@ -148,6 +148,7 @@ class SwitchingNMPC:
                 for n in range(1, settings.mode2.horizon + 1):
                     self.ocp2(plane).solver(n)
                     self.ocp2(plane).solver(n, warm=settings.mode2.warm_start)
+                self.ocp2(plane).prepare_guesses(settings.mode2.horizon)
                 self.ocp3(plane)
         self.mode = Mode.I
         self.contact: int | None = None

@@ -37,3 +37,19 @@ def hull_mass_matrix(p: UVMSParams) -> np.ndarray:
     inertia_o = h.inertia + m * (float(rg @ rg) * np.eye(3) - np.outer(rg, rg))
     M = np.block([[m * np.eye(3), -m * skew(rg)], [m * skew(rg), inertia_o]])
     return M + np.diag(h.added_mass)
+
+
+def random_states(p: UVMSParams, count: int, seed: int) -> list[np.ndarray]:
+    """Random states: position N(0, 1) m, any roll and yaw, pitch within 1.3 rad, joints within range,
+    speeds N(0, 1)."""
+    rng = np.random.default_rng(seed)
+    n, out = p.n_joints, []
+    for _ in range(count):
+        h = np.zeros(p.n_states)
+        h[:3] = rng.normal(size=3)
+        h[3:6] = [rng.uniform(-np.pi, np.pi), rng.uniform(-1.3, 1.3), rng.uniform(-np.pi, np.pi)]
+        lo, hi = np.array([lk.joint_range for lk in p.arm.links]).T
+        h[6:6 + n] = rng.uniform(lo, hi)
+        h[6 + n:] = rng.normal(0, 1.0, 6 + n)
+        out.append(h)
+    return out

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import random_states
 from oracles.rigid_body import MujocoOracle, PinocchioOracle
 
 from controller.model import ModelOptions, UVMSModel
@@ -13,20 +14,6 @@ from uvms import load_params
 
 RIGID = ModelOptions(buoyancy=False, added_mass=False, drag=False)
 ARMS = ["alpha3", "alpha4", "alpha6"]
-
-
-def random_states(p, count: int, seed: int) -> list[np.ndarray]:
-    rng = np.random.default_rng(seed)
-    n, out = p.n_joints, []
-    for _ in range(count):
-        h = np.zeros(p.n_states)
-        h[:3] = rng.normal(size=3)
-        h[3:6] = [rng.uniform(-np.pi, np.pi), rng.uniform(-1.3, 1.3), rng.uniform(-np.pi, np.pi)]
-        lo, hi = np.array([lk.joint_range for lk in p.arm.links]).T
-        h[6:6 + n] = rng.uniform(lo, hi)
-        h[6 + n:] = rng.normal(0, 1.0, 6 + n)
-        out.append(h)
-    return out
 
 
 @pytest.fixture(scope="module", params=ARMS)

@@ -130,7 +130,7 @@ def build_piece(piece: Piece) -> str:
     elif piece.kind == "certificate":
         FeasibilityTest(model, scene.planes, s.mode1, s.certificate)
     elif piece.kind == "mode2":
-        ModeIIOCP(model, scene.planes, piece.plane, s.mode2)
+        ModeIIOCP(model, scene.planes, piece.plane, s.mode2).prepare_guesses(s.mode2.horizon)
     else:
         ModeIIIOCP(model, scene.planes, piece.plane, s.mode3)
     return piece.label()
