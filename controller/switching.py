@@ -2,8 +2,7 @@
 control period.
 
 Mode selection (Algorithm 3): Mode I while the feasibility certificate (controller.feasibility)
-finds Mode I's feasible set F non-empty (without `minimum_violation`, the screens alone judge it and
-never switch); Mode II once it is empty, or once the deploy deadline
+finds Mode I's feasible set F non-empty; Mode II once it is empty, or once the deploy deadline
 fires (`deploy_deadline`, not in the paper: waiting longer would leave Mode II no time to put the
 tip on the wall; `_deadline`); Mode III after the Mode II step taken with N_p = 1 (Algorithm 1),
 once the tip is within `contact_tolerance` of the plane (else Mode II afresh); back to Mode I once
@@ -74,9 +73,6 @@ class SwitchingSettings:
     certificate: CertificateSettings = field(default_factory=CertificateSettings)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm
-    # False: F is judged by the screens alone and Mode I ends only by the deploy deadline; the
-    # minimum-violation problem (unbounded work: 0.1 to 1.7 s near a wall) is never solved
-    minimum_violation: bool = True
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh (else maximum braking, arm held)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
     release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
@@ -127,9 +123,6 @@ class SwitchingNMPC:
                  settings: SwitchingSettings = SwitchingSettings(),
                  on_solve: Callable[[SolveEvent], None] | None = None):
         self.model, self.planes, self.settings, self.on_solve = model, tuple(planes), settings, on_solve
-        if settings.switching and not (settings.deploy_deadline or settings.minimum_violation):
-            raise ValueError("deploy_deadline and minimum_violation both off: Mode I would never end; allowed: "
-                             "at least one of them on (or switching off)")
         if callable(reference):
             self.reference = reference
         else:
@@ -294,11 +287,10 @@ class SwitchingNMPC:
         deadline: bool | None = None  # the deploy deadline, when it was asked before the minimum-violation problem
 
         def needed(screened: Certificate) -> bool:
-            """Whether F's answer still matters: not when the deploy deadline switches either way, nor
-            without `minimum_violation`."""
+            """Whether F's answer still matters: not when the deploy deadline switches either way."""
             nonlocal deadline
             deadline = self._deadline(h, screened)
-            return self.settings.minimum_violation and not deadline
+            return not deadline
 
         cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now, needed=needed) \
             if self.settings.switching else None

@@ -29,15 +29,6 @@ def test_bad_state_is_rejected_in_one_line(params, scene) -> None:
         assert "\n" not in str(err.value)
 
 
-def test_a_mode_one_that_could_never_end_is_rejected_in_one_line(params, scene) -> None:
-    """Neither the deploy deadline nor the minimum-violation problem: nothing could end Mode I."""
-    model = UVMSModel(params, scene.water)
-    _, ref = initial_state(params, wall_approach(1.0, 0.0))
-    with pytest.raises(ValueError, match="allowed") as err:
-        SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(deploy_deadline=False, minimum_violation=False))
-    assert "\n" not in str(err.value)
-
-
 def test_solver_failure_falls_back_to_braking_within_bounds(params, scene) -> None:
     """Mode I capped at 1 SQP iteration that is not accepted as a real-time iterate fails on an
     approach at 0.3 m/s (from the held state the linearization's iterate violates the dynamics);
