@@ -40,7 +40,6 @@ import numpy as np
 
 from controller import impact
 from controller.codegen import NumpyCall
-from controller.kinematics import euler_zyx
 from controller.model import UVMSModel
 from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
@@ -52,7 +51,6 @@ from controller.transcription import (
     midpoint_residual,
     smooth_norm,
     smooth_relu,
-    thrust_away,
     tip_gap,
 )
 from uvms.scene import Plane
@@ -75,10 +73,6 @@ class ModeIISettings:
     impact_weight: float = 100.0  # s/m, J_II's exact penalty on the tip's approach speed beyond that peak's
     impact_smoothing: float = 0.01  # m/s, that penalty's relu
     terminal_margin: float | None = 0.04  # m, other bodies off the contact plane at contact (None: as above)
-    # 1/m^2: with no thrust that can push the hull away from the contact plane, J_II also pays this
-    # times the squared offset of the tip from the line through the hull's centre of mass along the
-    # plane's normal: the arm of the moment the contact force will put on the hull
-    moment_weight: float = 0.0
     deploy_stiffness: float = 10.0  # N m/rad, the initial guess's arm PD
     deploy_damping: float = 1.5  # N m s/rad
     max_iter: int = 100  # IPOPT
@@ -114,9 +108,8 @@ class ModeIIOCP:
         plane = self.planes[contact]
         h, h1, u, a, dt, dt1 = (ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv),
                                 ca.SX.sym("dt"), ca.SX.sym("dt1"))
-        # h0, dt0 (unused: dt_0 is free), current, allowed approach speed, moment-arm weight
-        P = ca.SX.sym("P", ns + 1 + 3 + 2)
-        vc, v_allowed, w_moment = P[ns + 1:ns + 4], P[ns + 4], P[ns + 5]
+        P = ca.SX.sym("P", ns + 1 + 3 + 1)  # h0, dt0 (unused: dt_0 is free), current, allowed approach speed
+        vc, v_allowed = P[ns + 1:ns + 4], P[ns + 4]
         self._clearance = ca.Function("clear2", [h], [clearances(model, h, self.planes, contact)])
         self.n_clear = self._clearance.size1_out(0)
         self._contact_rows = contact_rows(model, self.planes, contact)
@@ -131,10 +124,6 @@ class ModeIIOCP:
         if s.impact_fraction is not None:
             approach = -ca.dot(ca.DM(plane.normal), v_ee)
             terminal_cost += s.impact_weight * smooth_relu(approach - v_allowed, s.impact_smoothing)
-        n_w = ca.DM(plane.normal)
-        offset = model.ee_pose(h1)[0] - (h1[:3] + euler_zyx(h1[3], h1[4], h1[5]) @ ca.DM(p.hull.com))
-        arm = offset - ca.dot(offset, n_w) * n_w
-        terminal_cost += w_moment * ca.dot(arm, arm)
         self._stage = (ca.Function("cost2", [st, P], [cost]), ca.Function("cons2", [st, P], [cons]),
                        ca.Function("tcost2", [xN, P], [terminal_cost]),
                        ca.Function("tcons2", [xN, P], [tip_gap(model, h1, plane)]))
@@ -170,7 +159,7 @@ class ModeIIOCP:
 
     def _problem(self, N: int) -> StageProblem:
         cost, cons, tcost, tcons = self._stage
-        return StageProblem(nx=self.ns + 1, nv=self.nu + self.nv, horizon=N, np=self.ns + 6, cost=cost,
+        return StageProblem(nx=self.ns + 1, nv=self.nu + self.nv, horizon=N, np=self.ns + 5, cost=cost,
                             constraints=cons, terminal_cost=tcost, terminal_constraints=tcons, n_fixed=self.ns)
 
     def solver(self, N: int, warm: bool = False) -> ca.Function:
@@ -267,10 +256,8 @@ class ModeIIOCP:
         if self.settings.terminal_margin is not None:  # the last node: every protected body off the contact plane
             lbg[i + self._contact_rows] = self.settings.terminal_margin
         w0 = np.clip(self.pack(hs, us, dt0), lbw, ubw)
-        w_moment = self.settings.moment_weight if thrust_away(self.model, h0, self.planes[self.contact], self._lo_u,
-                                                              self._hi_u) <= 0.0 else 0.0
         P = np.concatenate([h0, [dt0], np.zeros(3) if current is None else current,
-                            [min(self.allowed_speed(hs[-1]), 1e3), w_moment]])  # (a finite parameter)
+                            [min(self.allowed_speed(hs[-1]), 1e3)]])  # (a finite parameter)
         args = {"x0": w0, "p": P, "lbx": lbw, "ubx": ubw, "lbg": lbg, "ubg": ubg}
         if warm:
             args.update(lam_g0=duals[0], lam_x0=duals[1])

@@ -41,7 +41,6 @@ from controller.transcription import (
     midpoint_residual,
     obstacle_frame,
     smooth_relu,
-    thrust_away,
     tip_gap,
 )
 from uvms.scene import Plane
@@ -254,8 +253,13 @@ class ModeIIIOCP:
         return min(held, self.model.params.arm.tip_force_limit)
 
     def away_thrust(self, h: np.ndarray) -> float:
-        """controller.transcription.thrust_away against the contact plane, with this problem's bounds."""
-        return thrust_away(self.model, h, self.planes[self.contact], self._lo_u, self._hi_u)
+        """The largest force [N] the thrusters, within their bounds (0 for known-failed ones), can
+        put on the hull along the contact plane's normal, away from the plane, in attitude h."""
+        p = self.model.params
+        R = np.asarray(ca.DM(euler_zyx(*h[3:6])))
+        along = (R.T @ self.planes[self.contact].normal) @ p.allocation_matrix()[:3]
+        nt = p.n_thrusters
+        return float(np.sum(np.maximum(along * self._lo_u[:nt], along * self._hi_u[:nt])))
 
     def stopping_force(self, h: np.ndarray) -> float:
         """Algorithm 2's force, bounded: the smaller of the torque-limited pushing force and the

@@ -113,16 +113,6 @@ def tip_gap(model: UVMSModel, h: ca.SX, plane: Plane) -> ca.SX:
     return ca.dot(ca.DM(plane.normal), model.ee_pose(h)[0]) + plane.offset - model.params.arm.tip_radius
 
 
-def thrust_away(model: UVMSModel, h: np.ndarray, plane: Plane, lo: np.ndarray, hi: np.ndarray) -> float:
-    """The largest force [N] the thrusters, within input bounds lo, hi (0 for known-failed ones),
-    can put on the hull along the plane's normal, away from the plane, in h's attitude."""
-    p = model.params
-    R = np.asarray(ca.DM(euler_zyx(*h[3:6])))
-    along = (R.T @ plane.normal) @ p.allocation_matrix()[:3]
-    nt = p.n_thrusters
-    return float(np.sum(np.maximum(along * lo[:nt], along * hi[:nt])))
-
-
 def smooth_norm(v: ca.SX, eps: float) -> ca.SX:
     """sqrt(|v|^2 + eps^2): |v| made differentiable at 0 (over-estimates by at most eps)."""
     return ca.sqrt(ca.dot(v, v) + eps * eps)
