@@ -1,10 +1,11 @@
 """The work around the solvers in a step, the pieces side by side: Mode III's projection onto the
-wall (an SQP iteration against IPOPT on the same 4-variable problem), the braking rollout over Mode
-I's horizon (the certificate's first screen and Mode III's release check: one compiled call
-against the policy stepped in numpy) and Mode II's deploy guess (asked by the deploy deadline in
-every Mode I step near a wall, and at each Mode II entry: compiled rollouts against the numpy loop
-that stops at contact). Each repetition runs the methods back to back on the same state, so that
-the machine's drifts fall on them alike.
+wall (Newton's method against IPOPT on the same 4-variable problem, from states whose tip was put
+on the wall and then moved by up to 1 cm and 0.05 rad, as Mode III's recomputed nodes are), the
+braking rollout over Mode I's horizon (the certificate's first screen and Mode III's release
+check: one compiled call against the policy stepped in numpy) and Mode II's deploy guess (asked by
+the deploy deadline in every Mode I step near a wall, and at each Mode II entry: compiled rollouts
+against the numpy loop that stops at contact). Each repetition runs the methods back to back on
+the same state, so that the machine's drifts fall on them alike.
 
   python bench/step_overheads.py              # 200 states each (about 1 min)
 
@@ -80,7 +81,7 @@ def measure(count: int) -> dict[str, list[float]]:
     braking.compiled_rollout(20, 4, False)
     n, rng = params.n_joints, np.random.default_rng(0)
     times: dict[str, list[float]] = {k: [] for k in (
-        "projection: SQP iteration", "projection: IPOPT", "braking rollout: compiled", "braking rollout: numpy steps",
+        "projection: Newton", "projection: IPOPT", "braking rollout: compiled", "braking rollout: numpy steps",
         "deploy guess: compiled", "deploy guess: numpy steps")}
 
     def timed(name: str, f, *args) -> None:
@@ -94,8 +95,13 @@ def measure(count: int) -> dict[str, list[float]]:
         h[3:6] += rng.uniform(-0.1, 0.1, 3)
         h[6:6 + n] += rng.uniform(-0.2, 0.2, n)
         h[6 + n:] += rng.uniform(-0.1, 0.1, len(h) - 6 - n)
-        timed("projection: SQP iteration", m3.onto_plane, h)
-        timed("projection: IPOPT", m3.onto_plane_ipopt, h)
+        near = h.copy()  # as Mode III's recomputed nodes: the tip put on the wall, then drifted off it
+        near[6:6 + n] = m3.onto_plane_ipopt(h)
+        near[:3] += rng.uniform(-0.01, 0.01, 3)
+        near[3:6] += rng.uniform(-0.02, 0.02, 3)
+        near[6:6 + n] += rng.uniform(-0.05, 0.05, n)
+        timed("projection: Newton", m3.onto_plane, near)
+        timed("projection: IPOPT", m3.onto_plane_ipopt, near)
         posture = h[6:6 + n]
         timed("braking rollout: compiled", braking.rollout, h, posture, 0.1, 20, 4, current)
         timed("braking rollout: numpy steps", stepped, model, braking, h, posture, 0.1, 20, 4, current, False)
