@@ -260,11 +260,8 @@ class ModeIIIOCP:
     def away_thrust(self, h: np.ndarray) -> float:
         """The largest force [N] the thrusters, within their bounds (0 for known-failed ones), can
         put on the hull along the contact plane's normal, away from the plane, in attitude h."""
-        p = self.model.params
         R = np.asarray(ca.DM(euler_zyx(*h[3:6])))
-        along = (R.T @ self.planes[self.contact].normal) @ p.allocation_matrix()[:3]
-        nt = p.n_thrusters
-        return float(np.sum(np.maximum(along * self._lo_u[:nt], along * self._hi_u[:nt])))
+        return self.model.params.max_thrust_along(R.T @ self.planes[self.contact].normal, self._lo_u, self._hi_u)
 
     def stopping_force(self, h: np.ndarray) -> float:
         """Algorithm 2's force, bounded: the smaller of the torque-limited pushing force and the

@@ -13,6 +13,9 @@ from controller.codegen import NumpyCall, compiled
 from controller.model import UVMSModel
 from uvms.scene import Plane
 
+ATTITUDE_STIFFNESS = 20.0  # N m/rad: the braking policy's level roll and pitch hold
+ATTITUDE_DAMPING = 5.0  # N m s/rad: the same hold on the angular rates
+
 
 @dataclass(frozen=True)
 class JointHold:
@@ -24,8 +27,8 @@ class JointHold:
 
 class BrakingPolicy:
     """Maximum braking with attitude hold. The thrusters first serve an attitude PD (level roll and
-    pitch, heading and angular rates held; 20 N m/rad, 5 N m s/rad), and the largest force against
-    the hull's body velocity that the remaining thruster range allows is added. Joint torques by
+    pitch, heading and angular rates held; ATTITUDE_STIFFNESS, ATTITUDE_DAMPING), and the largest
+    force against the hull's body velocity that the remaining thruster range allows is added. Joint torques by
     computed torque: those that make the joints' acceleration zero under this thrust
     (M [a_hull; 0] + b = [B u; tau]), plus a PD to `posture` [rad], within the torque limits."""
 
@@ -52,7 +55,7 @@ class BrakingPolicy:
         vc, lo, hi = ca.SX.sym("vc", 3), ca.SX.sym("lo", model.n_inputs), ca.SX.sym("hi", model.n_inputs)
         pinv, B = ca.DM(self._pinv), ca.DM(self._B)
         v, w = h[6 + n:9 + n], h[9 + n:12 + n]
-        hold = ca.vertcat(ca.DM.zeros(3), -20.0 * ca.vertcat(h[3], h[4], 0.0) - 5.0 * w)
+        hold = ca.vertcat(ca.DM.zeros(3), -ATTITUDE_STIFFNESS * ca.vertcat(h[3], h[4], 0.0) - ATTITUDE_DAMPING * w)
         lo_t, hi_t = lo[:nt], hi[:nt]
         base = ca.fmin(ca.fmax(pinv @ hold, lo_t), hi_t)
         brake = pinv @ ca.vertcat(-v, ca.DM.zeros(3))
@@ -108,7 +111,7 @@ class BrakingPolicy:
         model, n, nt = self.model, self.model.n_joints, self.model.params.n_thrusters
         vc = np.zeros(3) if current is None else current
         v, w = h[6 + n:9 + n], h[9 + n:12 + n]
-        hold = np.concatenate([np.zeros(3), -20.0 * np.array([h[3], h[4], 0.0]) - 5.0 * w])
+        hold = np.concatenate([np.zeros(3), -ATTITUDE_STIFFNESS * np.array([h[3], h[4], 0.0]) - ATTITUDE_DAMPING * w])
         lo_t, hi_t = self._thrust_limit[:, 0], self._thrust_limit[:, 1]
         base = np.clip(self._pinv @ hold, lo_t, hi_t)
         brake = self._pinv @ np.concatenate([-v, np.zeros(3)])

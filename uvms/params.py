@@ -170,6 +170,17 @@ class UVMSParams:
         cols = [np.concatenate([t.direction, np.cross(t.position, t.direction)]) for t in self.thrusters]
         return np.column_stack(cols)
 
+    def max_thrust_along(self, direction: np.ndarray, lo: np.ndarray | None = None,
+                         hi: np.ndarray | None = None) -> float:
+        """The largest total thruster force [N] along a body-frame unit direction, each thruster within
+        its bounds lo, hi [N] (default: `input_bounds`; 0 and 0 for a dead one)."""
+        b_lo, b_hi = self.input_bounds()
+        lo = b_lo if lo is None else lo
+        hi = b_hi if hi is None else hi
+        nt = self.n_thrusters
+        along = self.allocation_matrix()[:3].T @ np.asarray(direction, float)
+        return float(np.sum(np.maximum(along * lo[:nt], along * hi[:nt])))
+
     def without_arm(self) -> UVMSParams:
         """The hull alone (zero links): for hull-only experiments."""
         arm = Arm(name="none", links=(), home=_frozen([]), stowed=_frozen([]), end_effector=_frozen([0, 0, 0]),

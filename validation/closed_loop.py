@@ -54,7 +54,7 @@ from validation import manifest, presets
 from validation import mismatch as mismatches
 from validation.observers import ContactTally, Observer, Telemetry, Video, main_plane
 from validation.scenarios import Scenario
-from validation.setup import build_plant, initial_state, max_thrust_along, reference, wall_x  # noqa: F401
+from validation.setup import build_plant, initial_state, reference, wall_x  # noqa: F401
 from validation.summary import ModeTiming, StepRecord, Summary
 
 
@@ -357,7 +357,7 @@ def _summarize(sc: Scenario, resolved: presets.Resolved, mismatch: str, seed: in
         min_hull_distance=float(c.min_distance[hull_geoms].min()) if hull_geoms else None,
         hull_contact_impulse=c.hull_impulse, hull_peak_contact_force=c.hull_peak, ee_peak_contact_force=c.tip_peak,
         link_contact_impulse=c.link_impulse,
-        max_total_thrust_along_wall_normal=max_thrust_along(params, -scene.planes[wall].normal),
+        max_total_thrust_along_wall_normal=params.max_thrust_along(-scene.planes[wall].normal),
         final_task_error=float(np.linalg.norm(h[:3] - ref[:3])), final_joint_angles=h[6:6 + n].tolist(),
         solve_time=per_mode, fallbacks=sum(s.fallback != "none" for s in steps),
         switches=switches([s.switch for s in steps]), overruns=overruns, simulated_s=plant.t,

@@ -105,14 +105,6 @@ def reference(params: UVMSParams, sc: Scenario) -> Reference:
     return at
 
 
-def max_thrust_along(params, direction: np.ndarray) -> float:
-    """The largest total thruster force [N] along a world direction at zero attitude."""
-    lo, hi = params.input_bounds()
-    proj = params.allocation_matrix()[:3].T @ direction
-    nt = params.n_thrusters
-    return float(np.sum(np.where(proj > 0, hi[:nt] * proj, lo[:nt] * proj)))
-
-
 def plant_faults(sc: Scenario, unknown_dead: Sequence[int] = ()) -> tuple[ThrusterFault, ...]:
     """The plant's thruster faults: the scenario's, in file order, then the mismatch's unknown dead
     thrusters (from t = 0) that the scenario does not already fail."""
