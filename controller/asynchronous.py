@@ -138,6 +138,10 @@ class Asynchronous:
             self._finalizer()
         self._finalizer, self._conn = None, None
 
+    def answered(self, timeout: float = 0.0) -> bool:
+        """Whether the worker's answer is waiting, after waiting up to `timeout` [s] for it."""
+        return self._conn is not None and self._busy_since is not None and self._conn.poll(timeout)
+
     def _answer(self, wait: bool) -> _Plan | None:
         """The worker's answer, if there is one (waiting for it with `wait`)."""
         assert self._conn is not None and self._busy_since is not None
