@@ -170,8 +170,7 @@ class ModeIIOCP:
                                                   self._warm_ipopt if warm else self._ipopt, self._functions)
         return self._solvers[N, warm]
 
-    def shifted_duals(self, sol: ModeIISolution, N_next: int, elapsed: int = 1
-                      ) -> tuple[np.ndarray, np.ndarray] | None:
+    def shifted_duals(self, sol: ModeIISolution, N_next: int) -> tuple[np.ndarray, np.ndarray] | None:
         """The multipliers of `sol` for the next horizon, resampled as `shifted_guess` resamples its
         inputs (each new interval takes those of the old interval its midpoint falls in); None
         without them."""
@@ -179,7 +178,7 @@ class ModeIIOCP:
             return None
         N, ns, nz = len(sol.u), self.ns, self.ns + 1 + self.nu + self.nv
         nc = (len(sol.lam_g) - ns - 1) // N
-        idx = _resampled(sol, N_next, elapsed)
+        idx = _resampled(sol, N_next)
         stages_g, stages_x = sol.lam_g[ns:ns + N * nc].reshape(N, nc), sol.lam_x[:N * nz].reshape(N, nz)
         return (np.concatenate([sol.lam_g[:ns], stages_g[idx].ravel(), sol.lam_g[-1:]]),
                 np.concatenate([stages_x[idx].ravel(), sol.lam_x[N * nz:]]))
@@ -287,26 +286,23 @@ class ModeIIOCP:
         return impact.peak_force(self.model, h, self.planes[self.contact])
 
 
-def next_horizon(N: int, dt: float, dt_nominal: float, elapsed: int = 1) -> int:
-    """Algorithm 1: N_p(k+1) = ceil(t_exp / dt_nom) with t_exp = (N_p(k) - elapsed) dt* (at least 1);
-    `elapsed` is how many of the plan's intervals passed before the next step (the paper: 1)."""
-    return max(1, math.ceil((N - elapsed) * dt / dt_nominal - 1e-9))
+def next_horizon(N: int, dt: float, dt_nominal: float) -> int:
+    """Algorithm 1: N_p(k+1) = ceil(t_exp / dt_nom) with t_exp = (N_p(k) - 1) dt* (at least 1)."""
+    return max(1, math.ceil((N - 1) * dt / dt_nominal - 1e-9))
 
 
-def shifted_guess(sol: ModeIISolution, N_next: int, elapsed: int = 1) -> tuple[np.ndarray, float]:
-    """Inputs for the next horizon: the plan after its first `elapsed` intervals, resampled
-    (zero-order hold) onto N_next intervals that cover the same remaining time (one interval of its
-    last input once nothing remains)."""
-    return sol.u[_resampled(sol, N_next, elapsed)], _remaining_dt(sol, N_next, elapsed)
+def shifted_guess(sol: ModeIISolution, N_next: int) -> tuple[np.ndarray, float]:
+    """Inputs for the next horizon: the plan after its first interval, resampled (zero-order hold)
+    onto N_next intervals that cover the same remaining time."""
+    N = len(sol.u)
+    dt = (N - 1) * sol.dt / N_next if N > 1 else sol.dt
+    return sol.u[_resampled(sol, N_next)], dt
 
 
-def _remaining_dt(sol: ModeIISolution, N_next: int, elapsed: int) -> float:
-    rest = len(sol.u) - elapsed
-    return rest * sol.dt / N_next if rest >= 1 else sol.dt
-
-
-def _resampled(sol: ModeIISolution, N_next: int, elapsed: int = 1) -> np.ndarray:
-    """For each of N_next intervals covering the plan's time after its first `elapsed` intervals,
-    the index of the plan's interval its midpoint falls in."""
-    times = (np.arange(N_next) + 0.5) * _remaining_dt(sol, N_next, elapsed)
-    return np.minimum(elapsed + (times // sol.dt).astype(int), len(sol.u) - 1)
+def _resampled(sol: ModeIISolution, N_next: int) -> np.ndarray:
+    """For each of N_next intervals covering the plan's time after its first interval, the index of
+    the plan's interval its midpoint falls in."""
+    N = len(sol.u)
+    dt = (N - 1) * sol.dt / N_next if N > 1 else sol.dt
+    times = (np.arange(N_next) + 0.5) * dt
+    return np.minimum(1 + (times // sol.dt).astype(int), N - 1)

@@ -147,7 +147,7 @@ class SwitchingNMPC:
         self.contact: int | None = None
         self._plan: OCPSolution | ModeIISolution | ModeIIISolution | None = None
         self._recomputed = np.zeros((0, model.n_states))  # the Mode III plan's states from its inputs
-        self._clock2: tuple[float, int, float] | None = None  # the last Mode II plan's start [s], N_p, dt [s]
+        self._horizon2 = settings.mode2.horizon
         self.last_u = np.zeros(model.n_inputs)
         self._reported_mode = Mode.I
         self._switch: SwitchReason | None = None  # why this step left Mode I
@@ -246,15 +246,15 @@ class SwitchingNMPC:
             if closing[self.contact, 0] > self.settings.separation_speed:  # no contact needed: the certificate decides
                 self.mode, self._plan = Mode.I, None
             else:  # Mode II afresh: Algorithm 1's entry
-                self.mode, self._plan = Mode.II, None
+                self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         t0 = time.perf_counter()
         self._switch, self._ocp_time = None, 0.0
         if self.mode is Mode.I:
             out = self._step_mode1(h_a, t_a)
         elif self.mode is Mode.II:
-            out = self._step_mode2(h_a, t_a)
+            out = self._step_mode2(h_a)
         else:
-            out = self._step_mode3(h, t)
+            out = self._step_mode3(h)
         self.last_u = np.clip(out.u, self.lo, self.hi)
         info = StepInfo(t=t, mode=self._reported_mode, status=out.status, fallback=out.fallback,
                         solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=out.iterations,
@@ -300,8 +300,8 @@ class SwitchingNMPC:
             self._switch = SwitchReason.DEPLOY_DEADLINE
         if self._switch is not None:
             self.contact = self._closest_plane(cert.rollout)
-            self.mode, self._plan = Mode.II, None
-            return self._step_mode2(h, t, cert)
+            self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
+            return self._step_mode2(h, cert)
         self._reported_mode = Mode.I
         if cert is not None and cert.method is Method.MINIMUM_VIOLATION and cert.solution is not None:
             guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)  # a better start than the fresh one
@@ -360,23 +360,17 @@ class SwitchingNMPC:
         _, us, dt = ocp2.deploy_guess(h, self.settings.mode2.horizon, self.current)
         return s.dt * (1 + close.index(True)) <= len(us) * dt + s.dt
 
-    def _step_mode2(self, h: np.ndarray, t: float, cert: Certificate | None = None) -> _ModeStep:
-        """Mode II's step from h at t [s]. Algorithm 1 counts the previous plan's intervals that
-        passed since its start (one when the steps follow its intervals, as in the paper; more when
-        answers come late, controller.asynchronous), so that the contact time stays where it was."""
+    def _step_mode2(self, h: np.ndarray, cert: Certificate | None = None) -> _ModeStep:
         self._reported_mode = Mode.II
-        s, ocp = self.settings.mode2, self.ocp2(self.contact)
+        s, ocp, N = self.settings.mode2, self.ocp2(self.contact), self._horizon2
         previous = self._plan if isinstance(self._plan, ModeIISolution) else None
         duals = None
-        if previous is not None and self._clock2 is not None:
-            t_prev, N_prev, dt_prev = self._clock2
-            elapsed = max(1, round((t - t_prev) / dt_prev))
-            N = max(1, min(N_prev - elapsed, next_horizon(N_prev, dt_prev, s.dt_nominal, elapsed)))
-            us, dt = shifted_guess(previous, N, elapsed)
+        if previous is not None:
+            us, dt = shifted_guess(previous, N)
             guess = (self._resimulate(h, us, dt), us, dt)
-            duals = ocp.shifted_duals(previous, N, elapsed)
+            duals = ocp.shifted_duals(previous, N)
         else:
-            guess = ocp.deploy_guess(h, s.horizon, self.current)
+            guess = ocp.deploy_guess(h, N, self.current)
             N = len(guess[1])
         sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
@@ -388,13 +382,15 @@ class SwitchingNMPC:
             hp, up, dt = guess
             u, fallback = up[0], Fallback.SHIFTED_PLAN if previous is not None else Fallback.GUESS
             self._plan = ModeIISolution(sol.status, hp, up, dt, sol.solve_time, iters, np.nan, sol.w)
-        self._clock2 = (t, N, dt)
-        if N == 1:  # Algorithm 1: the plan's last interval ends at the contact
+        # Algorithm 1
+        if N > 1:
+            self._horizon2 = min(N - 1, next_horizon(N, dt, s.dt_nominal))
+        else:
             self.mode, self._plan = Mode.III, None
         return _ModeStep(u, sol.status, fallback, iters, dt, N, hp, up, certificate=cert,
                          impact_force=ocp.impact_force(hp[-1]))
 
-    def _step_mode3(self, h: np.ndarray, t: float) -> _ModeStep:
+    def _step_mode3(self, h: np.ndarray) -> _ModeStep:
         self._reported_mode = Mode.III
         s, ocp = self.settings.mode3, self.ocp3(self.contact)
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
@@ -417,8 +413,8 @@ class SwitchingNMPC:
             return _ModeStep(previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
                              previous.h[1:], previous.u[1:], previous.force[1:])
         if self.settings.redeploy:  # a plan that keeps the links off the wall rather than a rigid arm
-            self.mode = Mode.II
-            out = self._step_mode2(h, t)
+            self.mode, self._horizon2 = Mode.II, self.settings.mode2.horizon
+            out = self._step_mode2(h)
             return replace(out, fallback=Fallback.REDEPLOY if out.fallback is Fallback.NONE else out.fallback)
         u = self._hold(h, h[6:6 + self.model.n_joints], self.current)
         return _ModeStep(u, sol.status, Fallback.HOLD, sol.iterations, s.dt, s.horizon, h[None], u[None])
@@ -439,9 +435,8 @@ class SwitchingController:
     entry check reads the tip there; Mode III plans from the measured state (SwitchingNMPC.step
     says why). Mode II's intervals are at least L long (dt_bounds and dt_nominal raised to L), so
     that each input acts for as long as it was planned.
-    Algorithm 1's horizon rule counts the intervals that passed since the previous Mode II plan's
-    start (one when each step follows the last one by its interval, delayed or not).
-    L may not exceed Mode I's or Mode III's interval."""
+    Algorithm 1's horizon rule is unchanged: the plan of the next step starts one interval later,
+    as without a delay. L may not exceed Mode I's or Mode III's interval."""
 
     settings_type = SwitchingSettings
     contact_clearance = 0.02  # m

@@ -34,36 +34,6 @@ def test_shifted_guess_covers_the_remaining_time() -> None:
     assert us[0, 0] == 1.0
 
 
-
-@pytest.mark.parametrize(("N", "dt", "elapsed", "expected"), [(8, 0.1, 3, 5), (8, 0.07, 2, 5), (4, 0.05, 4, 1),
-                                                              (4, 0.05, 6, 1)])
-def test_next_horizon_counts_the_intervals_that_passed(N: int, dt: float, elapsed: int, expected: int) -> None:
-    """With k intervals passed, t_exp = (N_p - k) dt*: N_p(k+1) = ceil(t_exp / dt_nom), at least 1
-    (closed form, dt_nom = 0.1 s)."""
-    assert next_horizon(N, dt, 0.1, elapsed) == expected == max(1, math.ceil((N - elapsed) * dt / 0.1 - 1e-9))
-
-
-@pytest.mark.parametrize(("elapsed", "N_next"), [(1, 7), (2, 3), (3, 5), (5, 2)])
-def test_shifted_guess_after_several_intervals_is_the_plan_at_those_times(elapsed: int, N_next: int) -> None:
-    """k intervals after the plan's start, the resampled plan spans the remaining (N - k) dt* and
-    each new interval holds the old plan's input at its midpoint's time (zero-order hold, looked up
-    by time directly: floor(time / dt))."""
-    N, dt_old = 8, 0.05
-    u = np.arange(float(N))[:, None] * np.ones((1, 3))
-    sol = ModeIISolution(SolverStatus.SUCCESS, np.zeros((N + 1, 2)), u, dt_old, 0.0, 0, 0.0, np.zeros(0))
-    us, dt = shifted_guess(sol, N_next, elapsed)
-    assert N_next * dt == pytest.approx((N - elapsed) * dt_old, rel=1e-12)
-    midpoints = elapsed * dt_old + (np.arange(N_next) + 0.5) * dt
-    np.testing.assert_array_equal(us[:, 0], np.floor(midpoints / dt_old + 1e-9))
-
-
-def test_shifted_guess_past_the_plan_holds_its_last_input() -> None:
-    """More intervals passed than the plan had: one interval of its last input, of the old length."""
-    u = np.arange(4.0)[:, None] * np.ones((1, 3))
-    sol = ModeIISolution(SolverStatus.SUCCESS, np.zeros((5, 2)), u, 0.05, 0.0, 0, 0.0, np.zeros(0))
-    us, dt = shifted_guess(sol, 1, 6)
-    assert dt == 0.05 and us.shape == (1, 3) and us[0, 0] == 3.0
-
 @pytest.mark.slow
 def test_plan_touches_the_wall_at_its_end_and_the_model_agrees(params, scene) -> None:
     """Thrusters dead, 0.15 m/s current towards the wall 0.35 m ahead, arm stowed: the Mode II

@@ -10,11 +10,10 @@ friction, the mismatch) is shared.
 Latency (`latency`, "none" by default: the plant waits for the controller). With a number of
 seconds L each step's input reaches the thrusters L after its state was sampled, the previous input
 acting meanwhile, and the controller is told L (Task.latency) so that it can plan for it;
-"measured" uses each step's own wall-clock time (outcomes then depend on the machine and its load).
-"@MODES" (e.g. "0.1@II,III") delays only the steps computed in those modes (the controller is then
-told no delay). With "measured" and with ":strict" the loop runs no faster than real time, so that
-a controller whose solves run outside its steps (controller.asynchronous) sees them take plant time.
-A step whose computation takes longer than L is an overrun, counted per mode (Summary.solve_time, StepRecord.overrun).
+"measured" uses each step's own wall-clock time (outcomes then depend on the machine and its load;
+the loop runs no faster than real time). "@MODES" (e.g. "0.1@II,III") delays only the steps
+computed in those modes (the controller is then told no delay). A step whose computation takes
+longer than L is an overrun, counted per mode (Summary.solve_time, StepRecord.overrun).
 
 Strict real time (":strict" after a number of seconds, `--strict`): an overrun's answer is
 discarded, as if its computation had been cut at L, and the input the controller committed in
@@ -109,13 +108,6 @@ class Latency:
     seconds: float | None  # the same for every step; None: each step's own wall-clock time ("measured")
     modes: frozenset[Mode] = frozenset(Mode)  # the modes whose steps are delayed (the braking baseline: always)
     strict: bool = False  # an overrun's answer is discarded for the committed input
-
-    @property
-    def paced(self) -> bool:
-        """Whether the loop runs no faster than real time (measured, or strict): wall-clock time then
-        is the plant's time, for the step's own timing and for solves outside the step
-        (controller.asynchronous)."""
-        return self.seconds is None or self.strict
 
     @property
     def told(self) -> float:
@@ -243,7 +235,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     try:
         while plant.t < sc.duration - 1e-9:
             t = plant.t
-            if spec.paced and paced_from is not None:  # no faster than real time
+            if spec.seconds is None and paced_from is not None:  # measured: no faster than real time
                 time.sleep(max(0.0, t - (time.perf_counter() - paced_from)))
             t0 = time.perf_counter()
             u, info = ctl_obj.step(plant.state(), t)
