@@ -9,6 +9,8 @@ posed, so that a change of solver or options is measured offline, side by side, 
   python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 15 min)
   python bench/mode3_solvers.py --horizons 5,10   # the default options on the problems cut to each
                                              # horizon (intervals; at most the recorded one), 4 min
+  python bench/mode3_solvers.py --breakdown  # the default options: where an iteration's time goes
+                                             # (IPOPT's timing of the derivative callbacks), 1 min
 
 --record writes out/mode3_problems.npz (not committed, 1-2 MB; the closed loops are deterministic, so
 recording again gives the same problems on the same machine): per problem, the measured state, the primal guess
@@ -206,6 +208,44 @@ def horizons(values: list[int]) -> None:
     print("\n".join(lines))
 
 
+CALLBACKS = ("nlp_hess_l", "nlp_jac_g", "nlp_g", "nlp_grad_f", "nlp_f")
+
+
+def breakdown() -> None:
+    """The default options on every recorded problem: each solve's wall time split into IPOPT's own
+    timing of the compiled derivative callbacks and the rest (IPOPT's iteration with MUMPS, and
+    CasADi's assembly), per interior-point iteration summed over the problems."""
+    data, cold, model, scene = load_problems()
+    ocps: dict[int, ModeIIIOCP] = {}
+    total, iterations, spent = 0.0, 0, dict.fromkeys(CALLBACKS, 0.0)
+    for i in tqdm(range(len(cold)), desc="problems", unit="problem"):
+        contact = int(data["contact"][i])
+        if contact not in ocps:
+            ocps[contact] = ModeIIIOCP(model, scene.planes, contact, ModeIIISettings())
+        ocp = ocps[contact]
+        ocp.limit_inputs(data["lo"][i], data["hi"][i])
+        duals = None if cold[i] else (data["lam_g"][i], data["lam_x"][i])
+        sol = ocp.solve(data["h0"][i], data["guess"][i], data["current"][i], duals)
+        stats = (ocp.solver if duals is None else ocp.warm_solver).stats()
+        total, iterations = total + sol.solve_time, iterations + sol.iterations
+        for name in CALLBACKS:
+            spent[name] += float(stats.get(f"t_wall_{name}", 0.0))
+    per = 1e3 / max(iterations, 1)
+    rest = total - sum(spent.values())
+    lines = ["# Where a Mode III interior-point iteration's time goes", "",
+             f"`python bench/mode3_solvers.py --breakdown` ({platform.machine()}, casadi {ca.__version__}, IPOPT "
+             f"with MUMPS): the {len(cold)} recorded Mode III problems ({int(cold.sum())} cold), default options, "
+             f"{iterations} iterations in all. Wall time per iteration [ms], summed over the problems; the callbacks "
+             "as IPOPT times them (the compiled stage derivatives and CasADi's block assembly around them).", "",
+             "| part | ms per iteration | share |", "|---|---|---|"]
+    for name in CALLBACKS:
+        lines.append(f"| callback {name} | {per * spent[name]:.2f} | {spent[name] / total:.0%} |")
+    lines += [f"| the rest: IPOPT's iteration (MUMPS's factorization and solves) | {per * rest:.2f} | "
+              f"{rest / total:.0%} |", f"| whole solve | {per * total:.2f} | 100% |"]
+    (OUT / "mode3_breakdown.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--record", type=int, metavar="SEEDS", help="record the problems of seeds 0..SEEDS-1 first")
@@ -213,6 +253,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--controller", default="switching",
                     help="the preset whose problems --record records (assets/presets.toml)")
     ap.add_argument("--horizons", help="comma-separated Mode III horizons to compare instead of the option sets")
+    ap.add_argument("--breakdown", action="store_true", help="where an iteration's time goes (not the option sets)")
     a = ap.parse_args(argv)
     if a.record is not None:
         if a.record < 1 or a.workers < 1:
@@ -226,6 +267,8 @@ def main(argv: list[str] | None = None) -> None:
         if min(values) < 1:
             raise SystemExit(f"--horizons {a.horizons!r}; allowed: comma-separated integers >= 1")
         horizons(values)
+    elif a.breakdown:
+        breakdown()
     else:
         evaluate()
 
@@ -233,5 +276,6 @@ def main(argv: list[str] | None = None) -> None:
 if __name__ == "__main__":
     from validation import manifest
 
-    with manifest.recorded(Path(__file__).parent / "results" / "mode3_solvers.manifest.json"):
+    name = "mode3_breakdown" if "--breakdown" in sys.argv else "mode3_solvers"
+    with manifest.recorded(Path(__file__).parent / "results" / f"{name}.manifest.json"):
         main(sys.argv[1:])

@@ -317,6 +317,32 @@ def test_mismatch_changes_only_the_plant(params, scene) -> None:
     assert [p.friction for p in absolute.planes] == [0.15] * len(scene.planes)
 
 
+
+@pytest.mark.parametrize("k", [0.8, 1.25])
+def test_mass_split_into_weight_and_inertia_in_the_plant(params, scene, k: float) -> None:
+    """`mass_weight` gives MuJoCo's plant the weight in water of `mass` (net vertical force at rest:
+    gravity minus buoyancy from MuJoCo's own mass and gravity compensation, within 1e-9 N) with the
+    nominal hull's inertia; `mass_inertia` gives the inertia of `mass` (the hull body's mass and
+    inertia in MuJoCo's model, 1e-12 relative) with the nominal weight in water."""
+    from uvms_mj.build import COB_MASS, HULL
+    from uvms_mj.plant import Plant
+    from validation.mismatch import apply
+
+    def hull(values: dict) -> tuple[float, float, np.ndarray]:
+        plant_params, plant_scene, _, _ = apply(params, scene, values)
+        m = Plant(plant_params, plant_scene).model
+        b = m.body(HULL).id
+        cob = [c for c in range(m.nbody) if m.body_parentid[c] == b and m.body_mass[c] == COB_MASS]
+        in_water = sum(float(m.body_mass[c]) * (1.0 - float(m.body_gravcomp[c])) for c in [b, *cob])
+        assert len(cob) == 1
+        return in_water * float(-m.opt.gravity[2]), float(m.body_mass[b]), m.body_inertia[b].copy()
+
+    nominal, heavy, weight, inertia = hull({}), hull({"mass": k}), hull({"mass_weight": k}), hull({"mass_inertia": k})
+    assert weight[0] == pytest.approx(heavy[0], abs=1e-9) and inertia[0] == pytest.approx(nominal[0], abs=1e-9)
+    assert weight[0] != pytest.approx(nominal[0], abs=1.0)
+    assert weight[1] == nominal[1] and inertia[1] == pytest.approx(heavy[1], rel=1e-12)
+    np.testing.assert_allclose(inertia[2], heavy[2], rtol=1e-12)
+
 def test_recording_verifies_and_reads_back(tmp_path) -> None:
     """`uvms run --record` writes an .rrd that `rerun rrd verify` accepts; read back with Rerun's own
     reader it holds MuJoCo's geometry, the controller's superellipsoids, the planes, force arrows,

@@ -4,6 +4,10 @@ A mismatch is written as terms separated by spaces, each `name OP distribution`:
     added_mass*U(0.8,1.2)   scale the plant's added mass (hull and links)
     drag*U(0.8,1.2)         scale the plant's fluid-force coefficients (hull and links)
     mass*U(0.97,1.03)       scale the plant's hull mass and inertia (its volume is kept)
+    mass_weight*U(0.8,1.3)  only the weight in water of `mass`: the hull's displaced volume less by
+                            (k - 1) m / rho, its mass and inertia kept
+    mass_inertia*U(0.8,1.3) only the inertia of `mass`: mass and inertia scaled, the displaced
+                            volume more by (k - 1) m / rho, so its weight in water is kept
     cob+U(-0.003,0.003)     shift the plant's hull centre of buoyancy along body z [m]
     current+U(-0.1,0.1)     add an unknown current along world x [m/s] to the plant's
     friction*U(0.6,1.4)     scale the obstacles' contact friction
@@ -36,8 +40,8 @@ NONE = ""
 WIDE = ("added_mass*U(0.7,1.3) drag*U(0.7,1.3) mass*U(0.8,1.3) cob+U(-0.003,0.003) friction_coefficient=U(0.1,0.8) "
         "current+U(-0.2,0.2)")
 NAMED = {"default": DEFAULT, "wide": WIDE, "none": NONE}
-_OPS = {"added_mass": "*", "drag": "*", "mass": "*", "cob": "+", "current": "+", "friction": "*",
-        "friction_coefficient": "=", "thruster": "="}
+_OPS = {"added_mass": "*", "drag": "*", "mass": "*", "mass_weight": "*", "mass_inertia": "*", "cob": "+",
+        "current": "+", "friction": "*", "friction_coefficient": "=", "thruster": "="}
 _TERM = re.compile(r"^(?P<name>[a-z_]+)(?P<op>[*+=])(?P<dist>.+)$")
 _DIST = re.compile(r"^(?:(?P<kind>[UN])\((?P<a>[-+0-9.eE]+),(?P<b>[-+0-9.eE]+)\)|(?P<value>[-+0-9.eE]+))$")
 
@@ -107,6 +111,13 @@ def apply(params: UVMSParams, scene: Scene,
                        linear_damping=hull.linear_damping * k, quadratic_damping=hull.quadratic_damping * k)
         links = [replace(lk, mujoco_fluidcoef=_scale_fluid(lk.mujoco_fluidcoef, k),
                          drag_coefficient=lk.drag_coefficient * k) for lk in links]
+    extra_volume = hull.mass / scene.water.density  # m^3 per unit of k - 1: the hull's mass as displaced water
+    if "mass_weight" in values:
+        hull = replace(hull, volume=hull.volume - (values["mass_weight"] - 1.0) * extra_volume)
+    if "mass_inertia" in values:
+        k = values["mass_inertia"]
+        hull = replace(hull, mass=hull.mass * k, inertia=hull.inertia * k,
+                       volume=hull.volume + (k - 1.0) * extra_volume)
     if "mass" in values:
         k = values["mass"]
         hull = replace(hull, mass=hull.mass * k, inertia=hull.inertia * k)
