@@ -234,13 +234,14 @@ def breakdown() -> None:
     rest = total - sum(spent.values())
     lines = ["# Where a Mode III interior-point iteration's time goes", "",
              f"`python bench/mode3_solvers.py --breakdown` ({platform.machine()}, casadi {ca.__version__}, IPOPT "
-             f"with MUMPS): the {len(cold)} recorded Mode III problems ({int(cold.sum())} cold), default options, "
+             f"with MUMPS): the {len(cold)} Mode III problems ({int(cold.sum())} cold) recorded in closed loops of "
+             f"{', '.join(FAMILIES)}, seeds 0-{int(data['seeds']) - 1} (`--record`), default options, "
              f"{iterations} iterations in all. Wall time per iteration [ms], summed over the problems; the callbacks "
              "as IPOPT times them (the compiled stage derivatives and CasADi's block assembly around them).", "",
              "| part | ms per iteration | share |", "|---|---|---|"]
     for name in CALLBACKS:
         lines.append(f"| callback {name} | {per * spent[name]:.2f} | {spent[name] / total:.0%} |")
-    lines += [f"| the rest: IPOPT's iteration (MUMPS's factorization and solves) | {per * rest:.2f} | "
+    lines += [f"| the rest: IPOPT with MUMPS (KKT factorizations, solves) and CasADi's call | {per * rest:.2f} | "
               f"{rest / total:.0%} |", f"| whole solve | {per * total:.2f} | 100% |"]
     (OUT / "mode3_breakdown.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
