@@ -30,6 +30,7 @@ bench: $(VENV)/.installed
 	$(PY) bench/nmpc_modes.py
 	$(PY) bench/closed_loop_rtf.py
 	$(PY) bench/mode3_solvers.py --record 2
+	$(PY) bench/mode3_solvers.py --breakdown
 	$(PY) bench/min_violation_stop.py --record 2
 	$(PY) bench/min_violation_stop.py
 	$(PY) bench/campaign_throughput.py
