@@ -213,8 +213,9 @@ CALLBACKS = ("nlp_hess_l", "nlp_jac_g", "nlp_g", "nlp_grad_f", "nlp_f")
 
 def breakdown() -> None:
     """The default options on every recorded problem: each solve's wall time split into IPOPT's own
-    timing of the compiled derivative callbacks and the rest (IPOPT's iteration with MUMPS, and
-    CasADi's assembly), per interior-point iteration summed over the problems."""
+    timing of the derivative callbacks (compiled stage functions and CasADi's block assembly) and
+    the rest (IPOPT's iteration with MUMPS, and CasADi's call around the solver), per
+    interior-point iteration summed over the problems."""
     data, cold, model, scene = load_problems()
     ocps: dict[int, ModeIIIOCP] = {}
     total, iterations, spent = 0.0, 0, dict.fromkeys(CALLBACKS, 0.0)
