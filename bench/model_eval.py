@@ -20,7 +20,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from controller.model import UVMSModel
+from controller.model import WATER, UVMSModel
 from uvms import load_params, load_scene
 
 OUT = Path(__file__).parent / "results"
@@ -54,7 +54,7 @@ def main() -> None:
     model = UVMSModel(params, scene.water)
     h = ca.SX.sym("h", params.n_states)
     u = ca.SX.sym("u", params.n_inputs)
-    Fw, Rw, vc, ac = ca.SX.sym("Fw", 6), ca.SX.sym("Rw", 3, 3), ca.SX.sym("vc", 3), ca.SX.sym("ac", 3)
+    Fw, Rw, vc, ac = ca.SX.sym("Fw", 6), ca.SX.sym("Rw", 3, 3), ca.SX.sym("vc", WATER), ca.SX.sym("ac", 3)
     f_expr = model.f(h, u, Fw, Rw, vc, ac)
     f = ca.Function("f_model", [h, u, Fw, Rw, vc, ac], [f_expr])
     jac = ca.Function("jac_model", [h, u, Fw, Rw, vc, ac], [ca.jacobian(f_expr, ca.vertcat(h, u))])

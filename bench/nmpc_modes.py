@@ -133,7 +133,7 @@ def do_mpc_row(model, planes, h0, ref) -> dict:
     R = euler_zyx(h[3], h[4], h[5])
     eta_dot = ca.vertcat(R @ h[6 + n:9 + n], euler_rates(h[3:6], h[9 + n:12 + n]), h[12 + n:])
     m.set_rhs("h", ca.vertcat(eta_dot, a))
-    Q = sum(model.generalized_forces(h, u, ca.DM.zeros(6), ca.DM.eye(3), ca.DM.zeros(3), ca.DM.zeros(3)))
+    Q = sum(model.generalized_forces(h, u, ca.DM.zeros(6), ca.DM.eye(3), ca.DM.zeros(WATER), ca.DM.zeros(3)))
     m.set_alg("dynamics", model.mass_matrix(h) @ a - Q)
     m.setup()
     mpc = do_mpc.controller.MPC(m)

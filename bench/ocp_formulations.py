@@ -21,7 +21,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from controller.model import UVMSModel
+from controller.model import WATER, UVMSModel
 from uvms import load_params, load_scene
 
 OUT = Path(__file__).parent / "results"
@@ -33,7 +33,8 @@ def build(sym, hessian: str):
     model = UVMSModel(params, scene.water)
     ns, nu = params.n_states, params.n_inputs
     h, u = ca.SX.sym("h", ns), ca.SX.sym("u", nu)
-    F = ca.Function("F", [h, u], [model.rk4(h, u, ca.DM.zeros(6), ca.DM.eye(3), ca.DM.zeros(3), ca.DM.zeros(3), DT)])
+    still = (ca.DM.zeros(6), ca.DM.eye(3), ca.DM.zeros(WATER), ca.DM.zeros(3))
+    F = ca.Function("F", [h, u], [model.rk4(h, u, *still, DT)])
     wall = scene.planes[0]
     D = ca.Function("D", [h], [model.distances(h, ca.DM(wall.normal), wall.offset)])
     nw = N * (ns + nu) + ns

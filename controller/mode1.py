@@ -25,7 +25,7 @@ import casadi as ca
 import numpy as np
 
 from controller.iterate_stop import IterateStop
-from controller.model import UVMSModel
+from controller.model import WATER, UVMSModel, water
 from controller.sqp import SQPSettings, StageSQP
 from controller.stage_nlp import StageProblem, build_solver
 from controller.transcription import SolverStatus, clearances, ipopt_status, midpoint_residual
@@ -118,14 +118,14 @@ class ModeIOCP:
             raise ValueError(f"state_weights has {len(weights)} entries; allowed: {ns}")
         # stage functions (SX; inlined into one SX NLP)
         h, h1, u, a = ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv)
-        vc = ca.SX.sym("vc", 3)
+        vc = ca.SX.sym("vc", WATER)
         self._dynamics = ca.Function("dyn", [h, u, a, h1, vc], [midpoint_residual(model, h, u, a, h1, dt, vc)])
         self._clearance = ca.Function("clear", [h], [clearances(model, h, self.planes)])
         self.n_clear = self._clearance.size1_out(0)
         self.n_slack = self.n_clear if min_violation else 0
         self._nz = ns + nu + nv + self.n_slack
-        # the NLP: stage k sees s_k = (h_k, u_k, a_k, sigma_k, h_k+1) and p = (h0, h_ref, current)
-        st, P = ca.SX.sym("s", self._nz + ns), ca.SX.sym("P", 2 * ns + 3)
+        # the NLP: stage k sees s_k = (h_k, u_k, a_k, sigma_k, h_k+1) and p = (h0, h_ref, water)
+        st, P = ca.SX.sym("s", self._nz + ns), ca.SX.sym("P", 2 * ns + WATER)
         hk, uk, ak = st[:ns], st[ns:ns + nu], st[ns + nu:ns + nu + nv]
         sk, hk1 = st[ns + nu + nv:self._nz], st[self._nz:]
         e = hk1 - P[ns:2 * ns]
@@ -144,7 +144,7 @@ class ModeIOCP:
                  "mu_init": 1e-3, "sb": "yes", **barrier, **settings.ipopt_options}
         nw = N * self._nz + ns
         ng = ns + N * (ns + nv + self.n_clear)
-        self._P = np.zeros(2 * ns + 3)  # the parameters of the running solve (for the stop's check)
+        self._P = np.zeros(2 * ns + WATER)  # the parameters of the running solve (for the stop's check)
         self.stop = None
         if stop is not None:
             def accept(w: np.ndarray, g: np.ndarray) -> bool:
@@ -154,7 +154,7 @@ class ModeIOCP:
             self.stop = IterateStop(nw, ng, accept)
         callback = {"iteration_callback": self.stop} if self.stop is not None else {}
         if settings.compiled:
-            problem = StageProblem(nx=ns, nv=self._nz - ns, horizon=N, np=2 * ns + 3, cost=stage_cost,
+            problem = StageProblem(nx=ns, nv=self._nz - ns, horizon=N, np=2 * ns + WATER, cost=stage_cost,
                                    constraints=stage_constraints)
             name = f"{'minviol' if min_violation else 'mode1'}_{p.name}_{p.arm.name}"
             if settings.solver is Solver.SQP and not min_violation:  # (the slacks' problem: IPOPT)
@@ -163,7 +163,7 @@ class ModeIOCP:
                 self.solver, self.sqp = build_solver(problem, name, ipopt, options=callback), None
         else:
             self.sqp = None
-            w, Pn = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + 3)
+            w, Pn = ca.SX.sym("w", nw), ca.SX.sym("P", 2 * ns + WATER)
             stages = [w[k * self._nz:(k + 1) * self._nz + ns] for k in range(N)]
             J = sum(stage_cost(sk, Pn) for sk in stages)
             g = ca.vertcat(w[:ns] - Pn[:ns], *[stage_constraints(sk, Pn) for sk in stages])
@@ -253,7 +253,7 @@ class ModeIOCP:
         w0, lam_g, lam_x = self.initial_guess(np.asarray(h0, float), previous)
         if guess is not None:
             w0 = guess
-        P = np.concatenate([h0, h_ref, np.zeros(3) if current is None else current])
+        P = np.concatenate([h0, h_ref, water(current)])
         if self.sqp is not None:
             res = self.sqp.solve(w0, P, self.lbw, self.ubw, self.lbg[self.ns:], self.ubg[self.ns:], sqp)
             return self._solution(res.w, res.status, res.solve_time, res.iterations, res.cost,

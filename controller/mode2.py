@@ -40,7 +40,7 @@ import numpy as np
 
 from controller import impact
 from controller.codegen import NumpyCall
-from controller.model import UVMSModel
+from controller.model import WATER, UVMSModel, water
 from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import (
@@ -108,8 +108,8 @@ class ModeIIOCP:
         plane = self.planes[contact]
         h, h1, u, a, dt, dt1 = (ca.SX.sym("h", ns), ca.SX.sym("h1", ns), ca.SX.sym("u", nu), ca.SX.sym("a", nv),
                                 ca.SX.sym("dt"), ca.SX.sym("dt1"))
-        P = ca.SX.sym("P", ns + 1 + 3 + 1)  # h0, dt0 (unused: dt_0 is free), current, allowed approach speed
-        vc, v_allowed = P[ns + 1:ns + 4], P[ns + 4]
+        P = ca.SX.sym("P", ns + 1 + WATER + 1)  # h0, dt0 (unused: dt_0 is free), water, allowed approach speed
+        vc, v_allowed = P[ns + 1:ns + 1 + WATER], P[ns + 1 + WATER]
         self._clearance = ca.Function("clear2", [h], [clearances(model, h, self.planes, contact)])
         self.n_clear = self._clearance.size1_out(0)
         self._contact_rows = contact_rows(model, self.planes, contact)
@@ -159,7 +159,7 @@ class ModeIIOCP:
 
     def _problem(self, N: int) -> StageProblem:
         cost, cons, tcost, tcons = self._stage
-        return StageProblem(nx=self.ns + 1, nv=self.nu + self.nv, horizon=N, np=self.ns + 5, cost=cost,
+        return StageProblem(nx=self.ns + 1, nv=self.nu + self.nv, horizon=N, np=self.ns + 2 + WATER, cost=cost,
                             constraints=cons, terminal_cost=tcost, terminal_constraints=tcons, n_fixed=self.ns)
 
     def solver(self, N: int, warm: bool = False) -> ca.Function:
@@ -256,7 +256,7 @@ class ModeIIOCP:
         if self.settings.terminal_margin is not None:  # the last node: every protected body off the contact plane
             lbg[i + self._contact_rows] = self.settings.terminal_margin
         w0 = np.clip(self.pack(hs, us, dt0), lbw, ubw)
-        P = np.concatenate([h0, [dt0], np.zeros(3) if current is None else current,
+        P = np.concatenate([h0, [dt0], water(current),
                             [min(self.allowed_speed(hs[-1]), 1e3)]])  # (a finite parameter)
         args = {"x0": w0, "p": P, "lbx": lbw, "ubx": ubw, "lbg": lbg, "ubg": ubg}
         if warm:

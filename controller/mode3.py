@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 from controller.kinematics import euler_zyx
-from controller.model import UVMSModel
+from controller.model import WATER, UVMSModel, water
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import (
     SolverStatus,
@@ -130,8 +130,8 @@ class ModeIIIOCP:
             ca.SX.sym("a", nv),
             ca.SX.sym("F", 3),
         )
-        P = ca.SX.sym("P", ns + 3 + 2 + 1)  # h0, current, hull clearance and its weight, stage weight w_i
-        vc, wi = P[ns : ns + 3], P[ns + 5]
+        P = ca.SX.sym("P", ns + WATER + 2 + 1)  # h0, water, hull clearance and its weight, stage weight w_i
+        vc, wi = P[ns : ns + WATER], P[ns + WATER + 2]
         hm = (h + h1) / 2
         friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
@@ -142,13 +142,13 @@ class ModeIIIOCP:
             friction,
             self._clearance(h1),
         )
-        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + 3], P[ns + 4])
+        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1])
         st = ca.vertcat(h, u, a, F, h1)
         problem = StageProblem(
             nx=ns,
             nv=nu + nv + 3,
             horizon=N,
-            np=ns + 5,
+            np=ns + WATER + 2,
             np_stage=1,
             cost=ca.Function("cost3", [st, P], [cost]),
             constraints=ca.Function("cons3", [st, P], [cons]),
@@ -287,7 +287,7 @@ class ModeIIIOCP:
     ) -> tuple[np.ndarray, np.ndarray]:
         """The model over dt [s] under the thrust and the contact force F (obstacle frame) with the
         joints held rigid by computed torque; returns the state and the mean joint torque [N m]."""
-        vc = np.zeros(3) if current is None else current
+        vc = water(current)
         Fw, taus = np.concatenate([F, np.zeros(3)]), []
         for _ in range(substeps):
             u0 = np.concatenate([thrust, np.zeros(self.model.n_joints)])
@@ -355,7 +355,7 @@ class ModeIIIOCP:
         if s.force_free_gap is not None and self.away_thrust(h0) > 0.0 \
                 and float(tip_gap(self.model, h0, self.planes[self.contact])) > s.force_free_gap:
             ubw[self.nz - 3] = 0.0  # F_n of the first interval (its friction rows then zero F_t)
-        P = np.concatenate([h0, np.zeros(3) if current is None else current, [s.hull_clearance, s.clearance_weight],
+        P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight],
                             self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
         solver = self.solver

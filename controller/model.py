@@ -15,7 +15,9 @@ eq. 6.43, applied per body in its own frame); Froude-Krylov force rho V a_curren
 time-varying current; hull drag (Fossen linear + quadratic, relative velocity); link cross-flow
 drag integrated along each link by Gauss-Legendre points (so it yields moments); thrusters through
 the allocation matrix; joint torques and rotor inertias; the end-effector contact wrench given in
-the obstacle frame (paper eq. F_contact: J_v^T blockdiag(R_w, R_w) F^w).
+the obstacle frame (paper eq. F_contact: J_v^T blockdiag(R_w, R_w) F^w); and a hull weight in water
+beyond the parameters' (a vertical force at the hull's CoM: the slot in which controller.estimator
+puts a hull heavier or lighter in water than its model).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from uvms.scene import Water
 
 # A link's superellipsoid frame in its link frame: x_se = y_link, y_se = z_link, z_se = x_link (columns).
 LINK_TO_SUPERELLIPSOID = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+WATER = 4  # entries of the model's `vc` input: the current (3, world, m/s), the hull's extra weight in water (N)
 TERMS = ("coriolis", "gravity", "buoyancy", "added_mass", "froude_krylov", "drag", "thrust", "joint_torque",
          "contact")
 
@@ -69,7 +72,9 @@ class UVMSModel:
 
     Inputs of the dynamics: h (n_s), u (n_u: thruster forces N, joint torques N m), Fw (6: contact
     force N and torque N m at the end-effector, obstacle frame), Rw (3x3: obstacle frame -> world),
-    vc (3: current velocity, world, m/s), ac (3: its time derivative, m/s^2).
+    vc (WATER = 4: the current's velocity, world, m/s; then the hull's weight in water beyond the
+    parameters', N, downwards), ac (3: the current's time derivative, m/s^2). Numpy callers may
+    give vc as the current alone (3 values: no extra weight); `water()` makes the 4 values.
     """
 
     def __init__(self, params: UVMSParams, water: Water, options: ModelOptions = ModelOptions()):
@@ -80,7 +85,7 @@ class UVMSModel:
         h = ca.SX.sym("h", self.n_states)
         u = ca.SX.sym("u", self.n_inputs)
         Fw, Rw = ca.SX.sym("Fw", 6), ca.SX.sym("Rw", 3, 3)
-        vc, ac = ca.SX.sym("vc", 3), ca.SX.sym("ac", 3)
+        vc, ac = ca.SX.sym("vc", WATER), ca.SX.sym("ac", 3)
         dt = ca.SX.sym("dt")
         M, terms, kin = self._kane(h, u, Fw, Rw, vc, ac)
         rhs = sum(terms.values(), ca.SX.zeros(self.n_speeds))
@@ -112,7 +117,7 @@ class UVMSModel:
         v, om, qd = nu[0:3], nu[3:6], nu[6:]
         R = euler_zyx(h[3], h[4], h[5])
         g_B = R.T @ ca.DM([0.0, 0.0, -w.gravity])
-        vc_B, ac_B = R.T @ vc, R.T @ ac
+        vc_B, ac_B = R.T @ vc[:3], R.T @ ac
         fr = link_frames(p, qm)
         terms = {k: ca.SX.zeros(N) for k in TERMS}
         M = ca.SX.zeros(N, N)
@@ -160,6 +165,8 @@ class UVMSModel:
             _, Vb, _ = point_velocity(cob)
             if o.gravity:
                 terms["gravity"] += V.T @ (mass * g_B)
+                if k is None:  # the hull's extra weight in water, at its CoM
+                    terms["gravity"] += V.T @ (vc[3] * g_B / w.gravity)
                 if o.buoyancy:
                     terms["buoyancy"] -= Vb.T @ (w.density * vol * g_B)
             terms["froude_krylov"] += Vb.T @ (w.density * vol * ac_B)
@@ -263,7 +270,7 @@ class UVMSModel:
     def defaults(self, Fw=None, Rw=None, vc=None, ac=None) -> tuple[np.ndarray, ...]:
         """Fill the optional inputs: no contact, identity obstacle frame, still water."""
         return (np.zeros(6) if Fw is None else Fw, np.eye(3) if Rw is None else Rw,
-                np.zeros(3) if vc is None else vc, np.zeros(3) if ac is None else ac)
+                water(vc), np.zeros(3) if ac is None else ac)
 
     def hdot(self, h, u, Fw=None, Rw=None, vc=None, ac=None) -> np.ndarray:
         """State derivative from numpy arrays."""
@@ -310,6 +317,20 @@ class UVMSModel:
         return self._held[substeps](h, u, Fw, np.asarray(Rw, float).T, vc, ac, np.array([dt], float))[0].copy()
 
 
+def water(current=None, extra_weight: float = 0.0) -> np.ndarray:
+    """The model's `vc` input (WATER values) from a current [m/s, world] and the hull's extra weight
+    in water [N]: `current` may be None (still water), 3 values, or already the WATER values (then
+    `extra_weight` must be 0)."""
+    if current is None:
+        current = np.zeros(3)
+    c = np.asarray(current, float).ravel()
+    if c.size == WATER and extra_weight == 0.0:
+        return c.copy()
+    if c.size != 3:
+        raise ValueError(f"current has {c.size} values; allowed: 3 (m/s, world) or {WATER} (with the extra weight)")
+    return np.concatenate([c, [float(extra_weight)]])
+
+
 def _validate(p: UVMSParams) -> None:
     """Reject parameters that cannot make a model (one clear line each)."""
     if p.hull.volume <= 0:
@@ -329,4 +350,4 @@ def _validate(p: UVMSParams) -> None:
                              "singular; allowed: positive mass and inertia")
 
 
-__all__ = ["TERMS", "ModelError", "ModelOptions", "UVMSModel", "skew"]
+__all__ = ["TERMS", "WATER", "ModelError", "ModelOptions", "UVMSModel", "skew", "water"]

@@ -10,7 +10,7 @@ import casadi as ca
 import numpy as np
 
 from controller.codegen import NumpyCall, compiled
-from controller.model import UVMSModel
+from controller.model import WATER, UVMSModel, water
 from uvms.scene import Plane
 
 ATTITUDE_STIFFNESS = 20.0  # N m/rad: the braking policy's level roll and pitch hold
@@ -49,10 +49,11 @@ class BrakingPolicy:
 
     def law(self) -> ca.Function:
         """The policy as a CasADi function u(h, posture, vc, lo, hi) of the state, the posture [rad],
-        the current [m/s] and the input bounds: `__call__`'s arithmetic, for compiled rollouts."""
+        the water (model.water: current [m/s], extra hull weight [N]) and the input bounds:
+        `__call__`'s arithmetic, for compiled rollouts."""
         model, n, nt = self.model, self.model.n_joints, self.model.params.n_thrusters
         h, posture = ca.SX.sym("h", model.n_states), ca.SX.sym("posture", n)
-        vc, lo, hi = ca.SX.sym("vc", 3), ca.SX.sym("lo", model.n_inputs), ca.SX.sym("hi", model.n_inputs)
+        vc, lo, hi = ca.SX.sym("vc", WATER), ca.SX.sym("lo", model.n_inputs), ca.SX.sym("hi", model.n_inputs)
         pinv, B = ca.DM(self._pinv), ca.DM(self._B)
         v, w = h[6 + n:9 + n], h[9 + n:12 + n]
         hold = ca.vertcat(ca.DM.zeros(3), -ATTITUDE_STIFFNESS * ca.vertcat(h[3], h[4], 0.0) - ATTITUDE_DAMPING * w)
@@ -80,7 +81,8 @@ class BrakingPolicy:
         key = (steps, substeps, every_substep)
         if key not in self._compiled:
             model, law = self.model, self.law()
-            x, posture, vc = ca.MX.sym("h", model.n_states), ca.MX.sym("posture", model.n_joints), ca.MX.sym("vc", 3)
+            x, posture = ca.MX.sym("h", model.n_states), ca.MX.sym("posture", model.n_joints)
+            vc = ca.MX.sym("vc", WATER)
             lo, hi, dt = ca.MX.sym("lo", model.n_inputs), ca.MX.sym("hi", model.n_inputs), ca.MX.sym("dt")
             Fw, Rw, ac = ca.DM.zeros(6), ca.DM.eye(3), ca.DM.zeros(3)
             h, u_sum, u = x, 0, law(x, posture, vc, lo, hi)
@@ -104,12 +106,12 @@ class BrakingPolicy:
         """States (steps+1, ns) and inputs (steps, nu) of `compiled_rollout` from h0."""
         model = self.model
         hs, us = self.compiled_rollout(steps, substeps, every_substep)(
-            h0, posture, np.zeros(3) if current is None else current, self._lo, self._hi, np.array([dt], float))
+            h0, posture, water(current), self._lo, self._hi, np.array([dt], float))
         return (hs.reshape(steps + 1, model.n_states).copy(), us.reshape(steps, model.n_inputs).copy())
 
     def __call__(self, h: np.ndarray, posture: np.ndarray, current: np.ndarray | None = None) -> np.ndarray:
         model, n, nt = self.model, self.model.n_joints, self.model.params.n_thrusters
-        vc = np.zeros(3) if current is None else current
+        vc = water(current)
         v, w = h[6 + n:9 + n], h[9 + n:12 + n]
         hold = np.concatenate([np.zeros(3), -ATTITUDE_STIFFNESS * np.array([h[3], h[4], 0.0]) - ATTITUDE_DAMPING * w])
         lo_t, hi_t = self._thrust_limit[:, 0], self._thrust_limit[:, 1]

@@ -34,7 +34,7 @@ from controller.feasibility import Certificate, CertificateSettings, Feasibility
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
-from controller.model import UVMSModel
+from controller.model import UVMSModel, water
 from controller.protocol import StepInfo, Task
 from controller.rollouts import BrakingPolicy, JointHold, simulate
 from controller.transcription import tip_gap
@@ -79,7 +79,7 @@ class SwitchingSettings:
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
-    observe_current: bool = False  # add controller.estimator's estimate of the unknown current (SwitchingController)
+    observe_current: bool = False  # add controller.estimator's estimate of the unknown current and hull weight
     observer: ObserverSettings = field(default_factory=ObserverSettings)
     plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
 
@@ -128,7 +128,7 @@ class SwitchingNMPC:
         else:
             fixed = np.asarray(reference, float)
             self.reference = lambda t: fixed
-        self.current = np.asarray(settings.current, float)
+        self.current = water(settings.current)  # the model's vc: current [m/s] and extra hull weight [N]
         self.mode1 = self._hooked("mode1", ModeIOCP(model, planes, settings.mode1))
         self.feasibility = FeasibilityTest(model, planes, settings.mode1, settings.certificate)
         self._hooked("certificate", self.feasibility.problem)
@@ -424,9 +424,10 @@ class SwitchingController:
     """The switching NMPC behind the controller protocol (controller.protocol): built at `reset`
     from the task's vehicle, planes and reference; told the known current and faults each step.
     With `switching=False` in its settings it is the Mode-I-only baseline. With `observe_current`
-    the model's current is the known one plus controller.estimator's estimate of the rest, updated
-    from each pair of measured states while the previous step was Mode I's with every body at
-    least `contact_clearance` off every plane (a contact's force would read as a current), and held
+    the model's current is the known one plus controller.estimator's estimate of the rest, and the
+    model's hull weight its own plus the estimated extra weight, updated from each pair of measured
+    states while the previous step was Mode I's with every body at least `contact_clearance` off
+    every plane (a contact's force would read as a current or a weight), and held
     otherwise; under a latency it is never updated (it assumes one input over each interval).
 
     With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
@@ -477,7 +478,7 @@ class SwitchingController:
         if failed != self._failed:
             self.nmpc.set_failed_thrusters(failed)
             self._failed = failed
-        known = self._task.scene.current.at(t)
+        known = water(self._task.scene.current.at(t))
         if self.observer is not None:
             if self._last is not None and self._last[3] and t > self._last[2] and self.latency == 0.0:
                 self.observer.update(self._last[0], self._last[1], t - self._last[2], np.asarray(h, float), known)

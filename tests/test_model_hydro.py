@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from helpers import skew
 
-from controller.model import TERMS, ModelError, ModelOptions, UVMSModel
+from controller.model import TERMS, ModelError, ModelOptions, UVMSModel, water
 from uvms.conventions import euler_zyx_to_matrix
 
 RNG = np.random.default_rng(21)
@@ -71,7 +71,7 @@ def test_hull_terms_equal_fossen_closed_forms(hull_model, params, scene, term) -
         if term == "M":
             got = np.asarray(hull_model.mass_matrix(h))
         else:
-            out = hull_model.generalized_forces(h, np.zeros(8), np.zeros(6), np.eye(3), vc, ac)
+            out = hull_model.generalized_forces(h, np.zeros(8), np.zeros(6), np.eye(3), water(vc), ac)
             got = np.asarray(out[TERMS.index(term)]).ravel()
         tol = 1e-3 if term == "drag" else 1e-9
         np.testing.assert_allclose(got, ref, rtol=tol, atol=tol * np.abs(ref).max())
@@ -109,7 +109,7 @@ def test_energy_is_conserved_without_drag_inputs_or_current(params, scene) -> No
     u = np.zeros(params.n_inputs)
     step = model.rk4.map(1)
     for _ in range(3000):
-        h = np.asarray(step(h, u, np.zeros(6), np.eye(3), np.zeros(3), np.zeros(3), 1e-3)).ravel()
+        h = np.asarray(step(h, u, np.zeros(6), np.eye(3), water(), np.zeros(3), 1e-3)).ravel()
     assert abs(energy(model, params, scene.water, h) - e0) < 1e-7 * ke0
 
 
@@ -145,10 +145,37 @@ def test_link_cross_flow_drag_and_added_mass_about_the_elbow(params, scene) -> N
     h[6 + n + 6 + 2] = w
     full = UVMSModel(params, scene.water)
     drag = np.asarray(full.generalized_forces(h, np.zeros(params.n_inputs), np.zeros(6), np.eye(3),
-                                              np.zeros(3), np.zeros(3))[TERMS.index("drag")]).ravel()
+                                              water(), np.zeros(3))[TERMS.index("drag")]).ravel()
     assert drag[6 + 2] == pytest.approx(-rho * elbow.drag_coefficient * r * w * abs(w) * L**4 / 4, rel=1e-6)
     no_added = UVMSModel(params, scene.water, ModelOptions(added_mass=False))
     I_A = sum(lk.added_mass_coefficient * rho * np.pi * lk.radius**2 * lk.length * (dk**2 + lk.length**2 / 12)
               for lk, dk in ((elbow, elbow.length / 2), (wrist, elbow.length + wrist.length / 2)))
     gain = np.asarray(full.mass_matrix(h))[8, 8] - np.asarray(no_added.mass_matrix(h))[8, 8]
     assert gain == pytest.approx(I_A, rel=1e-9)
+
+
+def test_extra_hull_weight_is_the_gravity_of_a_heavier_hull(params, scene) -> None:
+    """The 4th entry of the water input (controller.model.water: the hull's weight in water beyond
+    its parameters', N) acts as the weight of W/g more hull mass at its CoM: at 20 random states of
+    the whole UVMS, the gravity term with W = 30 N equals that of a model whose hull is W/g heavier
+    (its parameters changed, its own gravity code) to 1e-9 relative (rounding of sums of ~100 N),
+    and every other term is unchanged to the bit."""
+    W, n = 30.0, params.n_joints
+    model = UVMSModel(params, scene.water)
+    heavy = UVMSModel(dataclasses.replace(params, hull=dataclasses.replace(
+        params.hull, mass=params.hull.mass + W / scene.water.gravity)), scene.water)
+    for _ in range(20):
+        h = np.zeros(params.n_states)
+        h[:3], h[3:6] = RNG.normal(size=3), RNG.uniform(-1.2, 1.2, 3)
+        h[6:6 + n], h[6 + n:] = params.arm.home + RNG.normal(0, 0.3, n), RNG.normal(0, 0.4, 6 + n)
+        u, vc = RNG.normal(0, 5, params.n_inputs), RNG.normal(0, 0.2, 3)
+        args = (h, u, np.zeros(6), np.eye(3))
+        with_w = model.generalized_forces(*args, water(vc, W), np.zeros(3))
+        without = model.generalized_forces(*args, water(vc), np.zeros(3))
+        ref = np.asarray(heavy.generalized_forces(*args, water(vc), np.zeros(3))[TERMS.index("gravity")]).ravel()
+        for i, term in enumerate(TERMS):
+            got = np.asarray(with_w[i]).ravel()
+            if term == "gravity":
+                np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+            else:
+                np.testing.assert_array_equal(got, np.asarray(without[i]).ravel())

@@ -8,7 +8,7 @@ import pytest
 from helpers import random_states
 from oracles.rigid_body import MujocoOracle, PinocchioOracle
 
-from controller.model import ModelOptions, UVMSModel
+from controller.model import ModelOptions, UVMSModel, water
 from controller.transcription import obstacle_frame
 from uvms import load_params
 
@@ -33,7 +33,7 @@ def test_mass_matrix_and_bias_equal_both_oracles(setup) -> None:
     p, model, oracles = setup
     for h in random_states(p, 100, seed=p.n_joints):
         M = np.asarray(model.mass_matrix(h))
-        b = np.asarray(model.bias(h, np.zeros(3), np.zeros(3))).ravel()
+        b = np.asarray(model.bias(h, water(), np.zeros(3))).ravel()
         M_c, b_c = model.mass_and_bias(h)
         assert np.array_equal(M_c, M) and np.array_equal(b_c, b)
         for oracle in oracles:

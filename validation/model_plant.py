@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controller.model import UVMSModel
+from controller.model import UVMSModel, water
 from uvms.scene import Plane
 
 
@@ -41,7 +41,7 @@ class ModelPlant:
                  substep: float = 0.002, current: np.ndarray | None = None, failed_thrusters: Sequence[int] = ()):
         self.model, self.planes, self.contact, self.substep = model, tuple(planes), contact, substep
         self.h = np.asarray(h0, float).copy()
-        self.current = np.zeros(3) if current is None else np.asarray(current, float)
+        self.current = water(current)  # model.water: current [m/s, world], extra hull weight [N]
         self.failed = list(failed_thrusters)
         self.t = 0.0
 
