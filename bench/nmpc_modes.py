@@ -44,7 +44,7 @@ import casadi as ca
 import numpy as np
 
 from controller.mode1 import ModeIOCP, ModeISettings, Solver, _default_state_weights
-from controller.model import UVMSModel
+from controller.model import WATER, UVMSModel
 from controller.sqp import QPMode, SQPSettings
 from controller.switching import Mode, SwitchingSettings
 from controller.transcription import clearances
