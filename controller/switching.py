@@ -426,8 +426,8 @@ class SwitchingController:
     With `switching=False` in its settings it is the Mode-I-only baseline. With `observe_current`
     the model's current is the known one plus controller.estimator's estimate of the rest, and the
     model's hull weight its own plus the estimated extra weight, updated from each pair of measured
-    states while the previous step was Mode I's with every body at least `contact_clearance` off
-    every plane (a contact's force would read as a current or a weight), and held
+    states in any mode while every body and the tip are at least `contact_clearance` off every plane
+    at both (a contact's force would read as a current or a weight), and held
     otherwise; under a latency it is never updated (it assumes one input over each interval).
 
     With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
@@ -449,7 +449,7 @@ class SwitchingController:
         self.observer: CurrentObserver | None = None
         self._task: Task | None = None
         self._failed: tuple[int, ...] = ()
-        self._last: tuple[np.ndarray, np.ndarray, float, bool] | None = None  # h, u, t, and whether free
+        self._last: tuple[np.ndarray, np.ndarray, float, bool] | None = None  # h, u, t, whether observed free
 
     def reset(self, task: Task) -> None:
         model = UVMSModel(task.params, task.scene.water)
@@ -479,8 +479,9 @@ class SwitchingController:
             self.nmpc.set_failed_thrusters(failed)
             self._failed = failed
         known = water(self._task.scene.current.at(t))
+        free = self.observer is not None and self._free(h)
         if self.observer is not None:
-            if self._last is not None and self._last[3] and t > self._last[2] and self.latency == 0.0:
+            if self._last is not None and self._last[3] and free and t > self._last[2] and self.latency == 0.0:
                 self.observer.update(self._last[0], self._last[1], t - self._last[2], np.asarray(h, float), known)
             known = known + self.observer.estimate
         self.nmpc.current = known
@@ -490,7 +491,11 @@ class SwitchingController:
         else:
             u, info = self.nmpc.step(h, t)
         self._started = True
-        free = info.mode is Mode.I and info.distances is not None and bool(
-            np.min(info.distances) > self.contact_clearance)
         self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
         return u, info
+
+    def _free(self, h: np.ndarray) -> bool:
+        """Every body and the tip at least `contact_clearance` off every plane: no contact force acts."""
+        model, h = self.nmpc.model, np.asarray(h, float)
+        return all(float(np.min(np.asarray(model.distances(h, pl.normal, pl.offset)))) > self.contact_clearance
+                   and float(tip_gap(model, h, pl)) > self.contact_clearance for pl in self.nmpc.planes)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from controller.mode1 import ModeIOCP, ModeISettings, Solver, SolverStatus
-from controller.model import UVMSModel
+from controller.model import UVMSModel, water
 from controller.sqp import QPMode, SQPSettings
 
 
@@ -150,7 +150,7 @@ def test_sqp_reports_an_infeasible_qp_as_failed(params, scene) -> None:
     lbg, ubg = ocp.lbg[ocp.ns:].copy(), ocp.ubg[ocp.ns:].copy()
     lbg.reshape(pr.horizon, pr.nc)[:, sqp.nd:] = 50.0
     ubg.reshape(pr.horizon, pr.nc)[:, sqp.nd:] = np.inf
-    bad = sqp.solve(first.w, np.concatenate([h, ref, np.zeros(3)]), ocp.lbw, ocp.ubw, lbg, ubg)
+    bad = sqp.solve(first.w, np.concatenate([h, ref, water()]), ocp.lbw, ocp.ubw, lbg, ubg)
     again = ocp.solve(h, ref, previous=first)
     assert first.status.usable and again.status.usable
     assert bad.status is SolverStatus.FAILED and bad.violation > 40.0
@@ -170,7 +170,7 @@ def test_sqp_eliminates_the_implicit_dynamics_exactly(params, scene) -> None:
     sol = ocp.solve(h, ref)
     sqp, pr = ocp.sqp, ocp.sqp.pr
     N, nx, ns, nd, nxu = pr.horizon, pr.nx, sqp.ns, sqp.nd, pr.nx + sqp.nu
-    p = np.concatenate([h, ref, np.zeros(3)])
+    p = np.concatenate([h, ref, water()])
     stages = sqp._stages(sol.w)
     c, J, grad = (o.copy() for o in sqp._lin(stages, p))
     c, J, grad = c.reshape(N, pr.nc), J.reshape(N, ns, pr.nc).transpose(0, 2, 1), grad.reshape(N, ns)

@@ -12,7 +12,8 @@ import pytest
 from oracles.rigid_body import free_joint_map, free_joint_map_rate
 from scipy.spatial.transform import Rotation
 
-from controller.model import ModelOptions, UVMSModel, water
+from controller.model import ModelOptions, UVMSModel
+from controller.model import water as still_water
 from uvms import load_params
 from uvms.conventions import euler_zyx_to_matrix
 from uvms_mj.build import COB_INERTIA, EE_SITE, HULL, BuildOptions
@@ -60,7 +61,7 @@ def test_mass_matrix_and_bias_agree_with_buoyancy_on(scene, arm, added_mass) -> 
         np.testing.assert_allclose(T.T @ M_mj @ T, np.asarray(model.mass_matrix(h)), rtol=0, atol=TOL_M)
         if not added_mass:
             b = T.T @ (M_mj @ free_joint_map_rate(R, h[6 + n:]) + d.qfrc_bias - d.qfrc_passive)
-            b_model = np.asarray(model.bias(h, water(), np.zeros(3))).ravel()
+            b_model = np.asarray(model.bias(h, still_water(), np.zeros(3))).ravel()
             np.testing.assert_allclose(b, b_model, rtol=0, atol=TOL_B * np.abs(b_model).max())
 
 
@@ -100,5 +101,5 @@ def test_contact_wrench_maps_like_mj_applyFT(params, scene) -> None:
         mujoco.mj_applyFT(m, d, Rw @ Fw[:3], Rw @ Fw[3:], d.site_xpos[m.site(EE_SITE).id], last, qfrc)
         T = np.eye(m.nv)
         T[:3, :3] = euler_zyx_to_matrix(*h[3:6])
-        out = model.generalized_forces(h, np.zeros(params.n_inputs), Fw, Rw, water(), np.zeros(3))
+        out = model.generalized_forces(h, np.zeros(params.n_inputs), Fw, Rw, still_water(), np.zeros(3))
         np.testing.assert_allclose(np.asarray(out[-1]).ravel(), T.T @ qfrc, atol=1e-10)
