@@ -11,9 +11,10 @@ downward current instead misleads every plan that moves the hull vertically, sin
 it by the relative velocity and the weight does not (experiments/wide_known_7100: knowing the weight
 and the current is what the wide mismatch's failures need).
 
-Method: one Gauss-Newton step per control period on the hull's body velocity, then a first-order
-filter. The unknowns theta = (c_x, c_y, W / WEIGHT_UNIT) are scaled so that their Jacobian columns
-are of one size (10 N of weight change a period's velocity about as much as 0.1 m/s of current).
+Method: one damped Gauss-Newton step per control period on the hull's body velocity, then a
+filter with a growing memory at first and a first-order lag after. The unknowns
+theta = (c_x, c_y, W / WEIGHT_UNIT) are scaled so that their Jacobian columns are of one size
+(10 N of weight change a period's velocity about as much as 0.1 m/s of current).
 From the measured state h_prev and the input u_prev held over dt, the model predicts
 h_pred(theta) = `held_steps(h_prev, u_prev, dt, substeps, vc=water(known + c, W))`. The residual r
 is the measured minus the predicted hull linear body velocity [m/s] (and, with `angular_weight` > 0,
@@ -21,9 +22,16 @@ the angular one [rad/s] times that weight [m/rad]); its Jacobian J = dr/dtheta (
 by central finite differences of the prediction about the present estimate (6 calls of the compiled
 `held_steps`, so no code beyond the model's own is compiled). The damped least-squares step
     delta = (J^T J + lambda I)^-1 J^T r
-is bounded for any J, singular or tiny ones included (|delta| <= |r| / (2 sqrt(lambda))), and the
-estimate moves towards theta + delta by a first-order lag of time constant tau:
-    theta <- theta + (1 - exp(-dt / tau)) * (clip(theta + delta) - theta),
+is bounded for any J, singular or tiny ones included (|delta| <= |r| / (2 sqrt(lambda))). A step
+that does not lower the residual's norm is retried with lambda 100 times larger, up to LM_TRIALS
+dampings (Levenberg-Marquardt), and an update none of whose steps lowers it keeps the estimate as
+its target: at zero relative flow the sway drag is flat in the current (purely quadratic), so the
+first undamped step there is a guess, not an estimate (0.9 m/s off in MuJoCo's first period). The
+estimate moves towards the accepted target by the k-th update's gain
+    theta <- theta + max(1 / k, 1 - exp(-dt / tau)) * (clip(theta + delta) - theta):
+about the mean of all targets so far while they are fewer than about tau / dt (the first update
+takes its target whole, so that a vehicle that meets a wall within a second of starting plans with
+an estimate), then a first-order lag of time constant tau,
 where clip scales a current longer than `max_speed` back onto that circle and limits |W| to
 `max_weight`. The estimate is thus always within those bounds (a convex combination of points of a
 convex set) and never NaN: a non-finite state or prediction leaves it unchanged. One step per period
@@ -51,9 +59,9 @@ the error itself supplies a gradient. That is why the default lambda is small: (
 noise / 0.3 m/s of expected current)^2 is 1e-5; at 1e-3 the sway component stalled 4 mm/s short on
 the model itself.
 
-Cost: 7 calls of the compiled `held_steps` (4 RK4 substeps each) and a 3x3 solve, about 1 to 2 ms
-an update (medians of 0.9 to 1.7 ms over runs on a shared 2-core x86_64 machine; the first call
-loads the compiled code, tens of ms).
+Cost: 8 to 11 calls of the compiled `held_steps` (4 RK4 substeps each) and a 3x3 solve or more,
+about 1 to 2 ms an update (medians of 1.0 to 2.2 ms over runs on a shared 2-core x86_64 machine; the
+first call loads the compiled code, tens of ms).
 
 Settings (ObserverSettings): `time_constant` [s], `max_speed` [m/s], `max_weight` [N], `damping`
 lambda [1, on J^T J where J is in (m/s) per unit of theta], `fd_step` [unit of theta: m/s, or
@@ -69,6 +77,7 @@ import numpy as np
 from controller.model import UVMSModel, water
 
 WEIGHT_UNIT = 10.0  # N of extra hull weight per unit of the observer's third unknown
+LM_TRIALS = 4  # dampings tried per update: lambda, 100 lambda, ... (Levenberg-Marquardt)
 
 
 @dataclass(frozen=True)
@@ -105,6 +114,7 @@ class CurrentObserver:
         self._weights = np.ones(len(self._rows))
         self._weights[3:] = settings.angular_weight
         self._theta = np.zeros(3)  # c_x [m/s], c_y [m/s], W / WEIGHT_UNIT
+        self._updates = 0  # updates since the last reset
 
     @staticmethod
     def _water(theta: np.ndarray) -> np.ndarray:
@@ -119,6 +129,7 @@ class CurrentObserver:
     def reset(self) -> None:
         """Forget the estimate (back to no extra current and no extra weight)."""
         self._theta = np.zeros(3)
+        self._updates = 0
 
     def _predict(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, known: np.ndarray,
                  theta: np.ndarray) -> np.ndarray:
@@ -155,9 +166,16 @@ class CurrentObserver:
             J[:, i] = (ahead - behind) / (2 * s.fd_step)
         if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(J))):
             return self.estimate
-        delta = np.linalg.solve(J.T @ J + s.damping * np.eye(3), J.T @ residual)
-        target = self._clip(theta + delta)
-        gain = -np.expm1(-dt / s.time_constant)
+        target, worst = theta, float(residual @ residual)
+        for damping in s.damping * 10.0 ** np.arange(0, 2 * LM_TRIALS, 2):
+            delta = np.linalg.solve(J.T @ J + damping * np.eye(3), J.T @ residual)
+            trial = self._clip(theta + delta)
+            r = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, trial)
+            if np.all(np.isfinite(r)) and float(r @ r) < worst:
+                target = trial
+                break
+        self._updates += 1
+        gain = max(1.0 / self._updates, -np.expm1(-dt / s.time_constant))
         self._theta = theta + gain * (target - theta)
         return self.estimate
 
