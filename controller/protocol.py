@@ -86,6 +86,8 @@ class StepInfo:
     certificate: Any = None  # the switching NMPC: controller.feasibility.Certificate
     switch: Enum | str | None = None  # why this step left Mode I (controller.switching.SwitchReason)
     impact_force: float | None = None  # N: the planned contact's predicted peak tip force (controller.impact)
+    water: np.ndarray | None = None  # what the model assumed (controller.model.water): current m/s, world (3);
+    # the hull's extra weight in water, N (the known current plus the observer's estimate, if it has one)
 
 
 @runtime_checkable

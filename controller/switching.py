@@ -492,7 +492,7 @@ class SwitchingController:
             u, info = self.nmpc.step(h, t)
         self._started = True
         self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
-        return u, info
+        return u, replace(info, water=known.copy())
 
     def _free(self, h: np.ndarray) -> bool:
         """Every body and the tip at least `contact_clearance` off every plane: no contact force acts."""

@@ -346,7 +346,7 @@ def test_mass_split_into_weight_and_inertia_in_the_plant(params, scene, k: float
 def test_recording_verifies_and_reads_back(tmp_path) -> None:
     """`uvms run --record` writes an .rrd that `rerun rrd verify` accepts; read back with Rerun's own
     reader it holds MuJoCo's geometry, the controller's superellipsoids, the planes, force arrows,
-    the predicted horizons, the mode, and one solve-time sample per control step."""
+    the predicted horizons, the mode, and one solve-time and one model-water sample per control step."""
     import shutil
     import subprocess
     import sys
@@ -367,6 +367,9 @@ def test_recording_verifies_and_reads_back(tmp_path) -> None:
         assert expected in paths, expected
     rows = sum(c.num_rows for c in chunks if c.entity_path == "/telemetry/solver/solve_time")
     assert rows == len(s.steps) == 5
+    weights = [v for c in chunks if c.entity_path == "/telemetry/model/extra_weight"
+               for v in c.to_record_batch().column("Scalars:scalars").to_pylist()]
+    assert len(weights) == 5 and all(w == [0.0] for w in weights)  # the default preset has no observer
     text = " ".join(str(v) for c in chunks if c.entity_path == "/run"
                     for v in c.to_record_batch().column("TextDocument:text").to_pylist())
     assert "Verdict: success" in text and '"mode3"' in text and "mismatch" in text

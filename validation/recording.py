@@ -5,7 +5,8 @@ state timeline, with a blueprint that puts the 3D view beside the plots.
 Entities: `world/planes/<name>` (boxes), `world/mujoco/<geom>` (MuJoCo's ellipsoid, capsules and
 tip sphere, posed each step), `world/model/<body>` (the controller's superellipsoid meshes posed by
 the model at the measured state), `world/forces/thrusters` and `world/forces/tip` (arrows, N / 50),
-`world/plan/hull` and `world/plan/tip` (predicted horizons, line strips), `telemetry/...` (scalars)
+`world/plan/hull` and `world/plan/tip` (predicted horizons, line strips), `telemetry/...` (scalars;
+`telemetry/model/...`: the current [m/s] and extra hull weight [N] the model assumed),
 `mode` (state changes) and `run` (a text document: the scenario, the controller and its resolved
 settings, the mismatch draw and, at the end, the verdict). Timeline: `sim_time`.
 """
@@ -93,6 +94,7 @@ class RunRecording:
                 rrb.TimeSeriesView(origin="telemetry/closing_speed", name="hull closing speed [m/s]"),
                 rrb.TimeSeriesView(origin="telemetry/input", name="inputs [N, N m]"),
                 rrb.TimeSeriesView(origin="telemetry/solver", name="solve time [s], dt [s], N_p"),
+                rrb.TimeSeriesView(origin="telemetry/model", name="model's current [m/s], extra weight [N]"),
             ), column_shares=[3, 2]))
 
     def observe(self, t_start: float, report: PlantReport, info: StepInfo, u: np.ndarray) -> None:
@@ -133,6 +135,9 @@ class RunRecording:
             rec.log("telemetry/solver/solve_time", rr.Scalars(info.solve_time))
             rec.log("telemetry/solver/dt", rr.Scalars(info.dt))
             rec.log("telemetry/solver/horizon", rr.Scalars(float(info.horizon)))
+            if info.water is not None:  # what the model assumed: the current and the hull's extra weight
+                for k, name in enumerate(("current_x", "current_y", "current_z", "extra_weight")):
+                    rec.log(f"telemetry/model/{name}", rr.Scalars(float(info.water[k])))
         if info.h_pred is not None and len(info.h_pred) > 1:
             rec.log("world/plan/hull", rr.LineStrips3D([info.h_pred[:, :3]], colors=[(60, 200, 255)]))
             tips = [np.asarray(model.ee_pose(x)[0]).ravel() for x in info.h_pred]
