@@ -324,7 +324,9 @@ def water(current=None, extra_weight: float = 0.0) -> np.ndarray:
     if current is None:
         current = np.zeros(3)
     c = np.asarray(current, float).ravel()
-    if c.size == WATER and extra_weight == 0.0:
+    if c.size == WATER:
+        if extra_weight != 0.0:
+            raise ValueError(f"extra_weight {extra_weight} N given with {WATER} values that hold one; allowed: 0")
         return c.copy()
     if c.size != 3:
         raise ValueError(f"current has {c.size} values; allowed: 3 (m/s, world) or {WATER} (with the extra weight)")
