@@ -160,13 +160,15 @@ def test_a_dask_cluster_gives_the_local_pools_rows(tmp_path) -> None:
     assert engine["engine"] == "dask distributed" and engine["workers"] == 2
 
 
-def _folder(path: Path, verdicts: dict[tuple[str, int], str], controller: str) -> Path:
+def _folder(path: Path, verdicts: dict[tuple[str, int], str], controller: str,
+            values: dict[str, list[float]] | None = None) -> Path:
+    """A results.csv of these runs' verdicts; `values`: a column's value per run, in the runs' order."""
     path.mkdir()
     with (path / results.CSV).open("w") as fh:
         fh.write(",".join(results.FIELDS) + "\n")
-        for (scenario, seed), v in verdicts.items():
+        for i, ((scenario, seed), v) in enumerate(verdicts.items()):
             row = {f: "" for f in results.FIELDS} | {"scenario": scenario, "controller": controller, "seed": seed,
-                                                     "verdict": v}
+                                                     "verdict": v} | {c: x[i] for c, x in (values or {}).items()}
             fh.write(",".join(str(row[f]) for f in results.FIELDS) + "\n")
     return path
 
@@ -188,6 +190,23 @@ def test_compare_gives_the_paired_counts_and_the_exact_mcnemar_p(tmp_path, capsy
                 "y")
     assert main(["compare", str(c), str(d)]) == 0
     assert "within noise (p = 1)" in capsys.readouterr().out
+
+
+def test_compare_gives_the_sign_test_of_the_task_errors_and_hull_distances(tmp_path, capsys) -> None:
+    """Twelve runs in two families, every run a success in both folders: A's final task error is
+    lower on 11 (0.01 m against 0.05 m) and equal on one; its hull distance higher on 4, lower on 8.
+    Closed forms: the sign test of 11 against 0 is 2 * 0.5**11 = 0.00098, of 4 against 8 it is
+    0.39 (2 * P[Bin(12, 1/2) <= 4] = 2 * 794 / 4096); the medians and differences as written."""
+    runs = [("current-steady", s) for s in range(6)] + [("current-gust", s) for s in range(6)]
+    ok = dict.fromkeys(runs, "success")
+    a = _folder(tmp_path / "A", ok, "observer", {"final_task_error": [0.01] * 11 + [0.05],
+                                                  "min_hull_distance": [0.3] * 4 + [0.1] * 8})
+    b = _folder(tmp_path / "B", ok, "switching", {"final_task_error": [0.05] * 12, "min_hull_distance": [0.2] * 12})
+    assert main(["compare", str(a), str(b)]) == 0
+    text = capsys.readouterr().out
+    assert "| final task error [m] | all | 0.010 | 0.050 | -0.040 | 11 / 0 / 1 | 0.00098 |" in text
+    assert "| final task error [m] | current-gust | 0.010 | 0.050 | -0.040 | 5 / 0 / 1 | 0.062 |" in text
+    assert "| hull's smallest distance [m] | all | 0.100 | 0.200 | -0.100 | 4 / 8 / 0 | 0.39 |" in text
 
 
 def test_the_success_plot_draws_rates_of_none_and_all(tmp_path) -> None:

@@ -1,17 +1,19 @@
 """What a campaign's rows say: per scenario family and controller the success rate with its 95%
 Wilson interval (a markdown table and a figure), the paired counts and exact McNemar test of two
-controllers on the same runs, and the whole-step times per mode. `uvms compare A B` reads two
+controllers on the same runs, the sign test of their hull distances and task errors on those runs,
+and the whole-step times per mode. `uvms compare A B` reads two
 result folders the same way."""
 
 from __future__ import annotations
 
+import math
 import statistics
 from collections.abc import Sequence
 from itertools import combinations
 from pathlib import Path
 from typing import Any
 
-from validation.statistics import Paired, paired, wilson
+from validation.statistics import Paired, paired, sign_test, wilson
 
 MODES = ("I", "II", "III")
 SUCCESS = "success"
@@ -57,6 +59,40 @@ def _paired_line(a: str, b: str, p: Paired) -> str:
     return f"- {a} vs {b}: {p.both} / {p.only_a} / {p.only_b} / {p.neither}; {p.reading(a, b)}"
 
 
+MEASURES = (("min_hull_distance", "hull's smallest distance [m]", False),
+            ("final_task_error", "final task error [m]", True))  # (column, name, lower is better)
+
+
+def _value(r: dict[str, Any], column: str) -> float:
+    try:
+        return float(r.get(column, ""))
+    except ValueError:
+        return math.nan
+
+
+def _measures_text(rows: Sequence[dict[str, Any]], a: str, b: str) -> list[str]:
+    """Per measure and family (and all), the two controllers' medians and the sign test on shared runs."""
+    families = [*_names(rows, "scenario"), None]
+    out = []
+    for column, name, lower in MEASURES:
+        if not any(math.isfinite(_value(r, column)) for r in rows if r["controller"] in (a, b)):
+            continue
+        for f in families:
+            sel = {c: {(str(r["scenario"]), int(r["seed"])): _value(r, column) for r in rows
+                       if r["controller"] == c and f in (None, r["scenario"])} for c in (a, b)}
+            t = sign_test(sel[a], sel[b], lower)
+            med = [statistics.median(v) if (v := [x for x in sel[c].values() if math.isfinite(x)]) else math.nan
+                   for c in (a, b)]
+            out.append(f"| {name} | {f or 'all'} | {med[0]:.3f} | {med[1]:.3f} | {t.median_difference:+.3f} | "
+                       f"{t.a_better} / {t.b_better} / {t.ties} | {t.p_value:.2g} |")
+    if not out:
+        return []
+    return ["", f"Paired measures, {a} against {b} on the same runs: each one's median, the median of the "
+            "difference (first - second), the runs where the first is better / the second / neither, and the "
+            "exact two-sided sign test:", "", "| measure | scenario | first | second | difference | "
+            "first / second / tie | p |", "|---|---|---|---|---|---|---|", *out]
+
+
 PAIRED_HEAD = ("Paired on the same runs (scenario, seed): both succeed / only the first / only the second / "
                "neither, and the exact McNemar test:")
 
@@ -81,6 +117,8 @@ def statistics_text(rows: Sequence[dict[str, Any]]) -> str:
         for a, b in combinations(controllers, 2):
             p = pair([r for r in rows if r["controller"] == a], [r for r in rows if r["controller"] == b])
             lines.append(_paired_line(a, b, p))
+        for a, b in combinations(controllers, 2):
+            lines += _measures_text(rows, a, b)
     return "\n".join(lines) + "\n"
 
 

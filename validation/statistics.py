@@ -1,9 +1,11 @@
-"""Statistics that decide: success rates with Wilson intervals, and the exact McNemar test of two
-controllers on the same runs (scenario and seed)."""
+"""Statistics that decide: success rates with Wilson intervals, the exact McNemar test of two
+controllers' successes on the same runs (scenario and seed), and the exact sign test of a measure
+of theirs (a distance, an error) on the same runs."""
 
 from __future__ import annotations
 
 import math
+import statistics
 from dataclasses import dataclass
 
 Z95 = 1.959963984540054  # the standard normal's 97.5% quantile
@@ -53,6 +55,31 @@ def mcnemar_exact(b: int, c: int) -> float:
         return 1.0
     tail = sum(math.comb(n, i) for i in range(k + 1)) / 2.0**n
     return min(1.0, 2.0 * tail)
+
+
+@dataclass(frozen=True)
+class SignTest:
+    """A measure of two controllers on the same runs: how many runs favour A, favour B or tie, the
+    median of A's value minus B's, and the exact two-sided sign test of the runs that do not tie."""
+
+    a_better: int
+    b_better: int
+    ties: int
+    median_difference: float  # A - B, in the measure's unit (nan: no shared run)
+
+    @property
+    def p_value(self) -> float:
+        return mcnemar_exact(self.a_better, self.b_better)  # the same binomial(n, 1/2) test
+
+
+def sign_test(a: dict[tuple, float], b: dict[tuple, float], lower_is_better: bool) -> SignTest:
+    """The sign test over the runs (keys) where both controllers have a finite value."""
+    keys = [k for k in sorted(set(a) & set(b)) if math.isfinite(a[k]) and math.isfinite(b[k])]
+    d = [a[k] - b[k] for k in keys]
+    better = [x < 0 if lower_is_better else x > 0 for x in d]
+    ties = sum(x == 0 for x in d)
+    median = statistics.median(d) if d else math.nan
+    return SignTest(sum(better), len(d) - ties - sum(better), ties, median)
 
 
 def paired(a: dict[tuple, bool], b: dict[tuple, bool]) -> Paired:
