@@ -34,7 +34,6 @@ import numpy as np
 from controller.kinematics import euler_zyx
 from controller.model import WATER, UVMSModel, water
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
-from controller.strut import StrutProblem, StrutTarget
 from controller.transcription import (
     SolverStatus,
     clearances,
@@ -70,11 +69,6 @@ class ModeIIISettings:
     hull_clearance: float = 0.05  # m: J_III also pays for the hull closer than this to the contact plane
     clearance_weight: float = 1.0  # 1/s, on that shortfall (the approach speed's weights are 1 to 2)
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
-    # 1/rad^2: J_III also pays this times the squared distance of the hull's pitch and the joint angles
-    # from the steady strut (controller.strut), found with the tip on the plane at Mode III's entry,
-    # |pitch| <= strut_max_pitch; 0: no strut target
-    strut_weight: float = 0.0
-    strut_max_pitch: float = 0.26  # rad (15 deg)
     max_iter: int = 200
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
@@ -102,17 +96,11 @@ def friction_rows(model: UVMSModel, Rw: np.ndarray, hm: ca.SX, F: ca.SX, s: Mode
 
 
 def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi: ca.SX, s: ModeIIISettings,
-               clearance: ca.SX | float | None = None, weight: ca.SX | float | None = None,
-               strut: ca.SX | None = None) -> ca.SX:
+               clearance: ca.SX | float | None = None, weight: ca.SX | float | None = None) -> ca.SX:
     """J_III's stage term at the interval's end state h1 (stage weight wi), the hull's shortfall from
-    `clearance` [m] weighted by `weight` [1/s] (None: the settings'), the squared distance of the
-    hull's pitch and the joint angles from the steady strut's (`strut`: its pitch, joint angles
-    [rad] and weight [1/rad^2]; None: none), and the regularization."""
+    `clearance` [m] weighted by `weight` [1/s] (None: the settings'), and the regularization."""
     clearance = s.hull_clearance if clearance is None else clearance
     weight = s.clearance_weight if weight is None else weight
-    n = model.n_joints
-    off_strut = 0.0 if strut is None else strut[n + 1] * (
-        (h1[4] - strut[0]) ** 2 + ca.sumsqr(h1[6:6 + n] - strut[1:n + 1]))
     d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
     d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
     rates = h1[model.n_speeds + 3 :]  # hull angular and joint rates
@@ -122,7 +110,6 @@ def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi
         + s.input_weight * ca.dot(u, u)
         + s.force_weight * ca.dot(F, F)
         + s.rate_weight * ca.dot(rates, rates)
-        + off_strut
     )
 
 
@@ -143,9 +130,8 @@ class ModeIIIOCP:
             ca.SX.sym("a", nv),
             ca.SX.sym("F", 3),
         )
-        # h0, water, hull clearance and its weight, the strut's pitch, joint angles and weight; stage weight w_i
-        P = ca.SX.sym("P", ns + WATER + 2 + n + 2 + 1)
-        vc, wi = P[ns : ns + WATER], P[-1]
+        P = ca.SX.sym("P", ns + WATER + 2 + 1)  # h0, water, hull clearance and its weight, stage weight w_i
+        vc, wi = P[ns : ns + WATER], P[ns + WATER + 2]
         hm = (h + h1) / 2
         friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
@@ -156,14 +142,13 @@ class ModeIIIOCP:
             friction,
             self._clearance(h1),
         )
-        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1],
-                          P[ns + WATER + 2:ns + WATER + 4 + n])
+        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1])
         st = ca.vertcat(h, u, a, F, h1)
         problem = StageProblem(
             nx=ns,
             nv=nu + nv + 3,
             horizon=N,
-            np=ns + WATER + 4 + n,
+            np=ns + WATER + 2,
             np_stage=1,
             cost=ca.Function("cost3", [st, P], [cost]),
             constraints=ca.Function("cons3", [st, P], [cons]),
@@ -208,8 +193,6 @@ class ModeIIIOCP:
         gap = tip_gap(model, ca.vertcat(hq, ca.SX.zeros(nv)), plane)
         self._gap_q = ca.Function("gap_q", [hq], [gap, ca.jacobian(gap, q), ca.hessian(gap, q)[0]])
         pose, q0 = hq[:6], ca.SX.sym("q0", n)
-        self.strut = StrutProblem(model, plane, s.friction, s.friction_smoothing, s.strut_max_pitch,
-                                  s.distance_margin)
         self._ik = ca.nlpsol("wall_ik", "ipopt", {"x": q, "p": ca.vertcat(pose, q0), "f": ca.sumsqr(q - q0), "g": gap},
                              {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 50,
                                                              "tol": 1e-10}})
@@ -217,7 +200,6 @@ class ModeIIIOCP:
     def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
         self._lo_u, self._hi_u = np.asarray(lo, float), np.asarray(hi, float)
-        self.strut.limit_inputs(lo, hi)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         N, nz, ns, nu, n = self.settings.horizon, self.nz, self.ns, self.nu, self.model.n_joints
@@ -365,19 +347,16 @@ class ModeIIIOCP:
         guess: np.ndarray,
         current: np.ndarray | None = None,
         duals: tuple[np.ndarray, np.ndarray] | None = None,
-        strut: StrutTarget | None = None,
     ) -> ModeIIISolution:
         """Solve from h0 with a primal guess; with `duals` (lam_g, lam_x, e.g. `shifted_duals`) by the
-        warm-start solver, else by the cold one (Algorithm 2's guess). `strut`: the steady strut that
-        J_III pulls towards with `strut_weight` (None: no pull)."""
+        warm-start solver, else by the cold one (Algorithm 2's guess)."""
         lbw, ubw = self.bounds()
         s = self.settings
         if s.force_free_gap is not None and self.away_thrust(h0) > 0.0 \
                 and float(tip_gap(self.model, h0, self.planes[self.contact])) > s.force_free_gap:
             ubw[self.nz - 3] = 0.0  # F_n of the first interval (its friction rows then zero F_t)
-        n = self.model.n_joints
-        pull = np.zeros(n + 2) if strut is None else np.r_[strut.pitch, strut.joints, s.strut_weight]
-        P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight], pull, self.weights])
+        P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight],
+                            self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
         solver = self.solver
         if duals is not None:

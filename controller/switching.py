@@ -37,7 +37,6 @@ from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
 from controller.model import UVMSModel, water
 from controller.protocol import StepInfo, Task
 from controller.rollouts import BrakingPolicy, JointHold, simulate
-from controller.strut import StrutTarget
 from controller.transcription import tip_gap
 from uvms.scene import Plane
 
@@ -148,7 +147,6 @@ class SwitchingNMPC:
         self.contact: int | None = None
         self._plan: OCPSolution | ModeIISolution | ModeIIISolution | None = None
         self._recomputed = np.zeros((0, model.n_states))  # the Mode III plan's states from its inputs
-        self.strut: StrutTarget | None = None  # Mode III's steady strut (controller.strut), found at its entry
         self._horizon2 = settings.mode2.horizon
         self.last_u = np.zeros(model.n_inputs)
         self._reported_mode = Mode.I
@@ -404,8 +402,7 @@ class SwitchingNMPC:
         else:  # Algorithm 2
             guess = ocp.contact_guess(h, np.repeat(self.last_u[None], s.horizon, 0), None, self.current)
             duals = None
-            self.strut = ocp.strut.solve(h, water(self.current)) if s.strut_weight > 0 else None
-        sol = ocp.solve(h, guess, self.current, duals, self.strut)
+        sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
         if sol.status.usable:
             self._plan, self._recomputed = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp)
