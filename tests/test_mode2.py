@@ -149,13 +149,14 @@ def test_warm_start_from_the_shifted_plan_reaches_the_cold_solve(params, scene) 
     ModeIIOCP.shifted_duals). Oracle: the cold solve. Both converge (tol 1e-6) to the same plan:
     inputs within 1e-3 N or N m and dt within 1e-6 s (measured 5e-6 and 1e-8: the same local
     optimum; a different one differs by newtons). The warm start needs fewer iterations (43 vs 103
-    here): it is what the warm start is for, counted, not timed."""
+    on an AMD EPYC, 43 vs 424 on an Intel Xeon: the cold solve's path turns on the CPU's last bits,
+    hence the cap of 1000): it is what the warm start is for, counted, not timed."""
     from controller.rollouts import simulate
 
     model = UVMSModel(params, scene.water)
     current = np.array([0.15, 0.0, 0.0])
     h0, _ = initial_state(params, wall_approach(0.35, 0.2))
-    ocp = ModeIIOCP(model, scene.planes, 0, ModeIISettings(max_iter=300))
+    ocp = ModeIIOCP(model, scene.planes, 0, ModeIISettings(max_iter=1000))
     lo, hi = params.input_bounds()
     lo[:8] = hi[:8] = 0.0
     ocp.limit_inputs(lo, hi)
