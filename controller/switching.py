@@ -79,7 +79,7 @@ class SwitchingSettings:
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
-    observe_current: bool = False  # add controller.estimator's estimate of the unknown current and hull weight
+    observe_current: bool = True  # add controller.estimator's estimate of the unknown current and hull weight
     observer: ObserverSettings = field(default_factory=ObserverSettings)
     plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
 
@@ -423,8 +423,8 @@ class SwitchingNMPC:
 class SwitchingController:
     """The switching NMPC behind the controller protocol (controller.protocol): built at `reset`
     from the task's vehicle, planes and reference; told the known current and faults each step.
-    With `switching=False` in its settings it is the Mode-I-only baseline. With `observe_current`
-    the model's current is the known one plus controller.estimator's estimate of the rest, and the
+    With `switching=False` in its settings it is the Mode-I-only baseline. With `observe_current` (the
+    default) the model's current is the known one plus controller.estimator's estimate of the rest, and the
     model's hull weight its own plus the estimated extra weight, updated from each pair of measured
     states in any mode while every body and the tip are at least `contact_clearance` off every plane
     at both (a contact's force would read as a current or a weight), and held

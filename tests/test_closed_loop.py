@@ -369,7 +369,8 @@ def test_recording_verifies_and_reads_back(tmp_path) -> None:
     assert rows == len(s.steps) == 5
     weights = [v for c in chunks if c.entity_path == "/telemetry/model/extra_weight"
                for v in c.to_record_batch().column("Scalars:scalars").to_pylist()]
-    assert len(weights) == 5 and all(w == [0.0] for w in weights)  # the default preset has no observer
+    assert len(weights) == 5 and weights[0] == [0.0]  # the observer needs two states for an estimate
+    assert any(w != [0.0] for w in weights[1:])  # the default preset observes (the draw's hull is not nominal)
     text = " ".join(str(v) for c in chunks if c.entity_path == "/run"
                     for v in c.to_record_batch().column("TextDocument:text").to_pylist())
     assert "Verdict: success" in text and '"mode3"' in text and "mismatch" in text
