@@ -65,7 +65,7 @@ MEASURES = (("min_hull_distance", "hull's smallest distance [m]", False),
 
 def _value(r: dict[str, Any], column: str) -> float:
     try:
-        return float(r.get(column, ""))
+        return float(r.get(column) or "nan")
     except ValueError:
         return math.nan
 
