@@ -24,6 +24,7 @@ import numpy as np
 from tqdm import tqdm
 
 from controller.kinematics import euler_zyx
+from controller.mode3 import ModeIIISettings
 from controller.model import UVMSModel, water
 from controller.transcription import obstacle_frame, tip_gap
 from uvms import load_params
@@ -31,7 +32,7 @@ from validation import manifest, mismatch
 from validation.scenarios import Scenario, get
 from validation.setup import build_plant, scene_of
 
-DELTA = 0.01  # m/s, Mode III's friction smoothing
+DELTA = ModeIIISettings().friction_smoothing  # m/s, Mode III's friction smoothing
 HOLD = 2.0  # s, the MuJoCo check's hold
 STARTS = [(q, pitch) for q in ([0.0, 1.0, 0.5, 0.0], [0.0, 0.3, 0.3, 0.0], [0.0, -0.5, 0.5, 0.0], [0.0, 1.6, 1.5, 0.0])
           for pitch in (0.0, 0.3, -0.3, 0.6, -0.6)]
