@@ -158,7 +158,7 @@ class ModeIOCP:
                                    constraints=stage_constraints)
             name = f"{'minviol' if min_violation else 'mode1'}_{p.name}_{p.arm.name}"
             if settings.solver is Solver.SQP and not min_violation:  # (the slacks' problem: IPOPT)
-                self.solver, self.sqp = None, StageSQP(problem, name, algebraic=nv, settings=settings.sqp)
+                self.solver, self.sqp = None, StageSQP(problem, name, n_alg=nv, settings=settings.sqp)
             else:
                 self.solver, self.sqp = build_solver(problem, name, ipopt, options=callback), None
         else:

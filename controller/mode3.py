@@ -32,9 +32,7 @@ import casadi as ca
 import numpy as np
 
 from controller.kinematics import euler_zyx
-from controller.mode1 import Solver
 from controller.model import WATER, UVMSModel, water
-from controller.sqp import Hessian, SQPSettings, StageSQP
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import (
     SolverStatus,
@@ -74,11 +72,6 @@ class ModeIIISettings:
     max_iter: int = 200
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
-    # SQP: the SQP of `sqp` from the shifted plan and its multipliers; its IPOPT when the SQP's
-    # iterate is not usable
-    solver: Solver = Solver.IPOPT
-    sqp: SQPSettings = field(default_factory=lambda: SQPSettings(
-        max_iter=3, hessian=Hessian.LAGRANGIAN, line_search=True))
 
 
 @dataclass(frozen=True)
@@ -172,7 +165,6 @@ class ModeIIIOCP:
             **s.ipopt_options,
         }
         name = f"mode3_{p.name}_{p.arm.name}_{plane.name}"
-        self.problem, self.name = problem, name
         functions = stage_functions(problem, name)
         self.solver = build_solver(problem, name, ipopt, functions)
         # Warm start from the shifted previous plan and its multipliers (controller.switching): on 35
@@ -184,8 +176,6 @@ class ModeIIIOCP:
         warm = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
                 "mu_init": 1e-4}
         self.warm_solver = build_solver(problem, name, {**ipopt, **warm, **s.ipopt_options}, functions)
-        self.sqp = StageSQP(problem, name, algebraic=range(nu, nu + nv), settings=s.sqp) \
-            if s.solver is Solver.SQP else None
         self.weights = np.array([1 + (N - i) / (N - 1) if N > 1 else 1.0 for i in range(1, N + 1)])
         # bounds
         lo, hi = p.input_bounds()
@@ -368,23 +358,13 @@ class ModeIIIOCP:
         P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight],
                             self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
-        sqp_iterations, sqp_time = 0, 0.0
-        if self.sqp is not None and duals is not None:
-            ns = self.ns
-            res = self.sqp.solve(args["x0"], P, lbw, ubw, self.lbg[ns:], self.ubg[ns:], lam=duals[0][ns:])
-            if res.status.usable:
-                hs, us, Fs = self.unpack(res.w)
-                return ModeIIISolution(res.status, hs, us, Fs, res.solve_time, res.iterations, res.cost, res.w,
-                                       np.concatenate([np.zeros(ns), res.lam]), np.zeros_like(res.w))
-            sqp_iterations, sqp_time = res.iterations, res.solve_time
-            duals = None  # (no bound multipliers from the SQP: IPOPT's cold start)
         solver = self.solver
         if duals is not None:
             args.update(lam_g0=duals[0], lam_x0=duals[1])
             solver = self.warm_solver
         t0 = time.perf_counter()
         r = solver(**args)
-        elapsed = time.perf_counter() - t0 + sqp_time
+        elapsed = time.perf_counter() - t0
         st = solver.stats()
         w = np.asarray(r["x"]).ravel()
         hs, us, Fs = self.unpack(w)
@@ -394,7 +374,7 @@ class ModeIIIOCP:
             us,
             Fs,
             elapsed,
-            int(st["iter_count"]) + sqp_iterations,
+            int(st["iter_count"]),
             float(r["f"]),
             w,
             np.asarray(r["lam_g"]).ravel(),

@@ -3,35 +3,27 @@ Hessian, one structure-exploiting QP (HPIPM's Riccati interior point, through Ca
 per iteration, the compiled stage derivatives of `controller.stage_nlp`.
 
 The stage problem's constraints begin with the implicit dynamics: nx + n_alg equality rows in
-(x_k, v_k, x_k+1), where n_alg of the stage variables v_k, z_k, are algebraic (Mode I and Mode III:
-the accelerations of the inverse-dynamics midpoint rule) and carry no bounds; the others, u_k, are
-the QP's controls. HPIPM wants explicit dynamics x_k+1 = A x_k + B u_k + b, so each iteration
-eliminates (dx_k+1, dz_k) stage by stage from the linearized dynamics by the implicit function
-theorem (as implicit integrators do for acados): [dx_k+1; dz_k] = T_k [dx_k; du_k; 1] with T_k =
--[R_x1 R_z]^-1 [R_x R_u r]. The stage's remaining constraints and its cost are rewritten on (dx_k,
-du_k) through T_k, exactly (the QP is the linearization, nothing more is dropped).
+(x_k, u_k, z_k, x_k+1), where the last n_alg stage variables z_k are algebraic (Mode I: the
+accelerations of the inverse-dynamics midpoint rule) and carry no bounds. HPIPM wants explicit
+dynamics x_k+1 = A x_k + B u_k + b, so each iteration eliminates (dx_k+1, dz_k) stage by stage
+from the linearized dynamics by the implicit function theorem (as implicit integrators do for
+acados): [dx_k+1; dz_k] = T_k [dx_k; du_k; 1] with T_k = -[R_x1 R_z]^-1 [R_x R_u r]. The stage's
+remaining constraints and its cost are rewritten on (dx_k, du_k) through T_k, exactly (the QP is
+the linearization, nothing more is dropped). The Hessian is the cost's own (Gauss-Newton: the
+constraints' curvature is left out), so with Mode I's quadratic cost it is constant and always
+positive semidefinite; a fixed point of the iteration is a KKT point of the NLP.
 
-The Hessian is the cost's own; the constraints' curvature is left out (Gauss-Newton for a
-least-squares cost). `Hessian.DIAGONAL`: the cost's constant diagonal, evaluated once (Mode I's
-quadratic cost: always positive semidefinite). `Hessian.COST`: the cost's exact Hessian at each
-iterate, each stage's block of the eliminated QP with its eigenvalues raised to `hessian_floor`
-(Mode III's smoothed relus are not convex in the states). A fixed point of the iteration is a KKT
-point of the NLP.
-
-Globalization: full steps, or with `line_search` a backtracking line search on the exact L1 merit
-function f + rho |c|_1 (rho above the QP's largest multiplier), with Armijo's condition on the
-merit's directional derivative along the QP step, at most `max_backtracks` halvings. Converged
-(SUCCESS): the full step's largest entry below `step_tol` and the constraint violation below
-`violation_tol`. At `max_iter` the iterate is FEASIBLE when its violation is below
-FEASIBLE_VIOLATION, else REAL_TIME when `real_time` is set (with max_iter = 1 the real-time
-iteration of Diehl, Bock and Schloeder 2005: one QP per control period, converging over the
-periods), else MAX_ITER. A failed QP is FAILED; the caller falls back (controller.switching).
+Globalization: none, full steps; the warm start from the shifted previous plan keeps them in the
+region of full-step convergence. Converged (SUCCESS): the step's largest entry below `step_tol` and
+the constraint violation below `violation_tol`. At `max_iter` the iterate is FEASIBLE when its
+violation is below FEASIBLE_VIOLATION, else REAL_TIME when `real_time` is set (with max_iter = 1 the
+real-time iteration of Diehl, Bock and Schloeder 2005: one QP per control period, converging over
+the periods), else MAX_ITER. A failed QP is FAILED; the caller falls back (controller.switching).
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
 
@@ -55,14 +47,6 @@ class QPMode(Enum):
     ROBUST = "robust"
 
 
-class Hessian(Enum):
-    """The QP's Hessian (see the module docstring)."""
-
-    DIAGONAL = "the cost's constant diagonal"
-    COST = "the cost's exact Hessian, convexified per stage"
-    LAGRANGIAN = "the Lagrangian's exact Hessian at the last QP's multipliers, convexified per stage"
-
-
 @dataclass(frozen=True)
 class SQPSettings:
     max_iter: int = 2  # SQP iterations per solve (1: the real-time iteration; see bench/results/nmpc_modes.md)
@@ -73,12 +57,6 @@ class SQPSettings:
     qp_mode: QPMode = QPMode.ROBUST
     qp_tol: float = 1e-6  # HPIPM's tolerances (ROBUST at 1e-8 and SPEED_ABS at 1e-9 stall at the iteration cap)
     qp_mu0: float | None = 0.1  # HPIPM's initial barrier parameter (None: the mode's own; ROBUST's is 100)
-    hessian: Hessian = Hessian.DIAGONAL
-    hessian_floor: float = 1e-6  # Hessian.COST, LAGRANGIAN: smallest eigenvalue of a stage's QP block
-    equality_penalty: float = 0.0  # Hessian.COST, LAGRANGIAN: rho |J_eq d + c_eq|^2 added to each stage's QP cost
-    line_search: bool = False  # backtracking on the L1 merit function (else full steps)
-    max_backtracks: int = 8  # halvings of the step before the shortest is taken
-    armijo: float = 1e-4  # fraction of the merit's predicted decrease a step must achieve
 
 
 @dataclass(frozen=True)
@@ -90,7 +68,6 @@ class SQPResult:
     violation: float  # largest constraint violation at w
     cost: float
     solve_time: float  # s
-    lam: np.ndarray  # the stage constraints' multipliers (N nc; zeros unless Hessian.LAGRANGIAN or a line search)
 
 
 def _block_sparsity(shape: tuple[int, int], blocks: list[tuple[int, int, int, int]],
@@ -112,48 +89,36 @@ def _block_sparsity(shape: tuple[int, int], blocks: list[tuple[int, int, int, in
 
 
 class StageSQP:
-    """SQP on `problem` (no terminal functions; x_0 fully fixed to p[:nx]). `algebraic`: the
-    positions in each stage's v of the algebraic variables (an int n: the last n); the first nx +
-    n_alg constraint rows are the dynamics (= 0). With Hessian.DIAGONAL the cost must be a
-    separable quadratic in the states and controls (its Hessian diagonal, without entries on the
-    algebraic variables; evaluated once, at the first solve)."""
+    """SQP on `problem` (no terminal functions; x_0 fully fixed to p[:nx]). The last n_alg entries
+    of each stage's v are algebraic; the first nx + n_alg constraint rows are the dynamics (= 0).
+    The cost must be a separable quadratic in the states and controls (its Hessian diagonal, without
+    entries on the algebraic variables; evaluated once, at the first solve)."""
 
-    def __init__(self, problem: StageProblem, name: str, algebraic: int | Sequence[int],
-                 settings: SQPSettings = SQPSettings()):
+    def __init__(self, problem: StageProblem, name: str, n_alg: int, settings: SQPSettings = SQPSettings()):
         pr = problem
-        if pr.n_terminal or pr.terminal_cost is not None or pr.nf != pr.nx:
-            raise ValueError("StageSQP: terminal functions and a partly fixed x_0 are not supported")
-        self.pr, self.settings = pr, settings
+        if pr.n_terminal or pr.terminal_cost is not None or pr.nf != pr.nx or pr.np_stage:
+            raise ValueError("StageSQP: terminal functions, partly fixed x_0 and stage parameters are not supported")
+        self.pr, self.settings, self.n_alg = pr, settings, n_alg
         N, nx, nv = pr.horizon, pr.nx, pr.nv
-        alg = np.arange(nv - algebraic, nv) if isinstance(algebraic, int) else np.asarray(algebraic, int)
-        if len(alg) and (alg.min() < 0 or alg.max() >= nv or len(set(alg.tolist())) != len(alg)):
-            raise ValueError(f"StageSQP: algebraic positions {alg.tolist()} out of the stage variables' 0..{nv - 1}")
-        ctrl = np.setdiff1d(np.arange(nv), alg)
-        self.n_alg = len(alg)
-        self.nu = len(ctrl)  # the QP's controls per stage
-        self.nd = nx + self.n_alg  # dynamics rows
+        self.nu = nv - n_alg  # the QP's controls per stage
+        self.nd = nx + n_alg  # dynamics rows
         self.ng = pr.nc - self.nd  # path constraints per stage
         self.ns = 2 * nx + nv
-        nz, nxu = nx + nv, nx + self.nu
-        self._free = np.r_[np.arange(nx), nx + ctrl]  # (x_k, u_k) in s, the QP's stage variables
-        self._dep = np.r_[nz:nz + nx, nx + alg]  # the eliminated (x_k+1, z_k) in s, in T's row order
-        self._alg_w = nx + alg  # z_k in a stage's block of w
         fn = stage_functions(pr, name)
-        npk = pr.np + pr.np_stage
-        S, PK = ca.MX.sym("S", self.ns, N), ca.MX.sym("PK", npk, N)
-        c, J = fn[f"{name}_jac"].map(N)(S, PK)
-        _, grad = fn[f"{name}_grad"].map(N)(S, PK)
-        self._lin = NumpyCall(ca.Function("linearization", [S, PK], [ca.densify(c), ca.densify(J), ca.densify(grad)]))
-        self._val = NumpyCall(ca.Function("values", [S, PK], [ca.densify(fn[f"{name}_g"].map(N)(S, PK)),
-                                                             ca.sum2(pr.cost.map(N)(S, PK))]))
-        hess = fn[f"{name}_hess"].map(N)(S, PK, 1.0, ca.DM.zeros(pr.nc, N))
-        self._cost_hessian = NumpyCall(ca.Function("cost_hessian", [S, PK], [ca.densify(hess)]))
-        LAM = ca.MX.sym("LAM", pr.nc, N)
-        self._lag_hessian = NumpyCall(ca.Function("lagrangian_hessian", [S, PK, LAM], [ca.densify(
-            fn[f"{name}_hess"].map(N)(S, PK, 1.0, LAM))]))
-        self._h: np.ndarray | None = None  # Hessian.DIAGONAL: the cost Hessian's diagonal per stage (N, ns)
+        S, P = ca.MX.sym("S", self.ns, N), ca.MX.sym("P", pr.np)
+        PN = ca.repmat(P, 1, N)
+        c, J = fn[f"{name}_jac"].map(N)(S, PN)
+        _, grad = fn[f"{name}_grad"].map(N)(S, PN)
+        self._lin = NumpyCall(ca.Function("linearization", [S, P], [ca.densify(c), ca.densify(J), ca.densify(grad)]))
+        self._val = NumpyCall(ca.Function("values", [S, P], [ca.densify(fn[f"{name}_g"].map(N)(S, PN)),
+                                                            ca.sum2(pr.cost.map(N)(S, PN))]))
+        hess = fn[f"{name}_hess"].map(N)(S, PN, 1.0, ca.DM.zeros(pr.nc, N))
+        self._cost_hessian = NumpyCall(ca.Function("cost_hessian", [S, P], [ca.densify(hess)]))
+        self._h: np.ndarray | None = None  # the cost Hessian's diagonal per stage (N, ns)
+        nz = nx + nv
         self._stage_idx = (np.arange(N)[:, None] * nz + np.arange(self.ns)).ravel()  # s_k = w[k nz:k nz + ns]
-        nq = (N + 1) * nx + N * self.nu
+        self._dep = np.r_[nz:nz + nx, nx + self.nu:nz]  # the eliminated (x_k+1, z_k) in s, in T's row order
+        nq, nxu = (N + 1) * nx + N * self.nu, nx + self.nu
         na = N * (nx + self.ng)
         self._col = [k * nxu for k in range(N + 1)]  # where dx_k starts in the QP's variables
         a_blocks, a_diag, h_blocks = [], [], []
@@ -199,103 +164,73 @@ class StageSQP:
         self._a_vals = np.zeros(n_dyn + n_path + 1)
         self._a_vals[-1] = -1.0
         self._h_vals = np.zeros(N * nxu * nxu + 1)
-        self._keep = np.concatenate([k * nz + self._free for k in range(N)] + [np.r_[N * nz:N * nz + nx]])
+        nz = nx + nv
+        self._keep = np.concatenate([np.r_[k * nz:k * nz + nxu] for k in range(N)] + [np.r_[N * nz:N * nz + nx]])
 
     # ------------------------------------------------------------------------------------------
     def _stages(self, w: np.ndarray) -> np.ndarray:
         """(ns, N) in column-major nonzero order: the stage vectors s_k one after the other."""
         return w[self._stage_idx]
 
-    def _stage_parameters(self, p: np.ndarray) -> np.ndarray:
-        """(np + np_stage, N), column-major: each stage's parameters (p, its stage parameters)."""
-        pr = self.pr
-        PK = np.empty((pr.horizon, pr.np + pr.np_stage))
-        PK[:, :pr.np] = p[:pr.np]
-        PK[:, pr.np:] = np.reshape(p[pr.np:], (pr.horizon, pr.np_stage))
-        return PK.ravel()
-
-    def _violations(self, w: np.ndarray, PK: np.ndarray, lbg: np.ndarray, ubg: np.ndarray,
-                    x0: np.ndarray) -> tuple[np.ndarray, float]:
+    def _violations(self, w: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> tuple[np.ndarray, float]:
         """(every constraint's violation >= 0: the stage constraints, then x_0 = p[:nx]; cost) at w."""
-        out = self._val(self._stages(w), PK)
+        out = self._val(self._stages(w), p)
         c = out[0]
         over = np.maximum(np.maximum(lbg - c, c - ubg), 0.0)
-        return np.concatenate([over, np.abs(w[:self.pr.nx] - x0)]), float(out[1][0])
+        return np.concatenate([over, np.abs(w[:self.pr.nx] - p[:self.pr.nx])]), float(out[1][0])
 
     def evaluate(self, w: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> tuple[float, float]:
         """(largest violation of the stage constraints and of x_0 = p[:nx], cost) at w."""
-        over, cost = self._violations(w, self._stage_parameters(p), lbg, ubg, p[:self.pr.nx])
+        over, cost = self._violations(w, p, lbg, ubg)
         return float(over.max()), cost
 
-    def eliminate(self, J: np.ndarray, c: np.ndarray, grad: np.ndarray,
-                  H: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    def eliminate(self, J: np.ndarray, c: np.ndarray, grad: np.ndarray) -> tuple[np.ndarray, ...]:
         """The QP on (dx_k, du_k) of each stage from its linearization: constraint Jacobians J (N, nc,
-        ns) and values c (N, nc), cost gradients grad (N, ns), the cost's Hessians H (N, ns, ns; None:
-        the constant diagonal). The dynamics rows give [dx_k+1; dz_k] = T [dx; du; 1], so s = E [dx;
-        du; 1] with E's free rows [I 0] and dependent rows T. Returns T (N, nd, nxu + 1), the Hessian
-        E^T H E (N, nxu, nxu) and gradient E^T (grad + H e) (N, nxu) of the cost, and the path rows'
-        Jacobian J E (N, ng, nxu) and values at [dx; du] = 0 (N, ng) (e: E's last column)."""
-        nd, fr, dep = self.nd, self._free, self._dep
-        rhs = np.concatenate([J[:, :nd, fr], c[:, :nd, None]], axis=2)
+        ns) and values c (N, nc), cost gradients grad (N, ns). The columns of s are (x_k | u_k | z_k |
+        x_k+1); the dynamics rows give [dx_k+1; dz_k] = T [dx; du; 1], so s = E [dx; du; 1] with E =
+        [I 0; 0 I; T_z; T_x1]. Returns T (N, nd, nxu + 1), the Hessian E^T diag(h) E (N, nxu, nxu) and
+        gradient E^T (grad + diag(h) e) (N, nxu) of the cost, and the path rows' Jacobian J E (N, ng,
+        nxu) and values at [dx; du] = 0 (N, ng), written out on E's blocks (e: E's last column)."""
+        nd, nxu, dep, h = self.nd, self.pr.nx + self.nu, self._dep, self._h
+        rhs = np.concatenate([J[:, :nd, :nxu], c[:, :nd, None]], axis=2)
         T = -np.linalg.solve(J[:, :nd, dep], rhs)
         W, t = T[:, :, :-1], T[:, :, -1]
         WT = W.transpose(0, 2, 1)
-        if H is None:
-            h, nxu = self._h, len(fr)
-            Hq = WT @ (h[:, dep, None] * W)
-            Hq[:, np.arange(nxu), np.arange(nxu)] += h[:, fr]
-            gq = grad[:, fr] + (WT @ (grad[:, dep] + h[:, dep] * t)[:, :, None])[:, :, 0]
-        else:
-            Hfd, Hdd = H[:, fr][:, :, dep], H[:, dep][:, :, dep]
-            cross = Hfd @ W
-            Hq = H[:, fr][:, :, fr] + cross + cross.transpose(0, 2, 1) + WT @ Hdd @ W
-            He = np.concatenate([Hfd, Hdd], axis=1) @ t[:, :, None]  # (H e) on the free and dependent rows
-            gq = grad[:, fr] + He[:, :len(fr), 0] + (WT @ (grad[:, dep, None] + He[:, len(fr):]))[:, :, 0]
+        Hq = WT @ (h[:, dep, None] * W)
+        Hq[:, np.arange(nxu), np.arange(nxu)] += h[:, :nxu]
+        gq = grad[:, :nxu] + (WT @ (grad[:, dep] + h[:, dep] * t)[:, :, None])[:, :, 0]
         Jc_dep = J[:, nd:, dep]
-        return T, Hq, gq, J[:, nd:, fr] + Jc_dep @ W, c[:, nd:] + (Jc_dep @ t[:, :, None])[:, :, 0]
+        return T, Hq, gq, J[:, nd:, :nxu] + Jc_dep @ W, c[:, nd:] + (Jc_dep @ t[:, :, None])[:, :, 0]
 
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray, lbg: np.ndarray,
-              ubg: np.ndarray, settings: SQPSettings | None = None, lam: np.ndarray | None = None) -> SQPResult:
-        """From w0 with parameters p (the problem's, then each stage's); lbw/ubw bound w, lbg/ubg
-        bound the stage constraints (N nc, stage-major; the dynamics rows must be 0). `settings`
-        replaces the iteration settings (max_iter, real_time, tolerances, line search) for this
-        solve; the QP's and the Hessian's are fixed at construction. `lam`: the stage constraints'
-        multipliers (N nc) to start Hessian.LAGRANGIAN's first iteration from (None: zeros, the
-        cost's Hessian)."""
+              ubg: np.ndarray, settings: SQPSettings | None = None) -> SQPResult:
+        """From w0 with parameters p; lbw/ubw bound w, lbg/ubg bound the stage constraints (N nc,
+        stage-major; the dynamics rows must be 0). `settings` replaces the iteration settings
+        (max_iter, real_time, step_tol, violation_tol) for this solve; the QP's are
+        fixed at construction."""
         t0 = time.perf_counter()
         pr, s = self.pr, settings or self.settings
         N, nx, nv, nd, ns, ng = pr.horizon, pr.nx, pr.nv, self.nd, self.ns, self.ng
         nz, nxu = nx + nv, nx + self.nu
         w = np.array(w0, float)
-        PK, x0 = self._stage_parameters(p), p[:nx]
         lo_g = lbg.reshape(N, pr.nc)[:, nd:]
         hi_g = ubg.reshape(N, pr.nc)[:, nd:]
-        kind = self.settings.hessian
-        if kind is Hessian.DIAGONAL and self._h is None:
-            Hs = self._cost_hessian(self._stages(w), PK)[0].reshape(N, ns, ns)
+        if self._h is None:
+            Hs = self._cost_hessian(self._stages(w), p)[0].reshape(N, ns, ns)
             h = np.diagonal(Hs, axis1=1, axis2=2).copy()
-            if np.count_nonzero(Hs) != np.count_nonzero(h) or np.any(h[:, self._dep[nx:]]):
+            if np.count_nonzero(Hs) != np.count_nonzero(h) or np.any(h[:, nxu:nz]):
                 raise ValueError(f"{self.qp.name()}: the cost's Hessian must be diagonal and free of the algebraic "
-                                 "variables; allowed: sum_i h_i s_i^2 / 2 + linear terms, or Hessian.COST")
+                                 "variables; allowed: sum_i h_i s_i^2 / 2 + linear terms")
             self._h = h
-        mu = np.zeros((N, pr.nc)) if lam is None else np.reshape(lam, (N, pr.nc)).copy()
-        status, qp_iters, iterations, rho = SolverStatus.MAX_ITER, 0, 0, 0.0
+        status, qp_iters, iterations = SolverStatus.MAX_ITER, 0, 0
         n_dyn = N * nx * nxu
         for iterations in range(1, s.max_iter + 1):  # noqa: B007 (the count is returned)
-            S = self._stages(w)
-            out = self._lin(S, PK)
+            out = self._lin(self._stages(w), p)
             c = out[0].reshape(N, pr.nc)
             J = out[1].reshape(N, ns, pr.nc).transpose(0, 2, 1)  # (N, nc, ns)
             grad = out[2].reshape(N, ns)
-            H = None
-            if kind is Hessian.COST:
-                H = self._cost_hessian(S, PK)[0].reshape(N, ns, ns)
-            elif kind is Hessian.LAGRANGIAN:
-                H = self._lag_hessian(S, PK, mu.ravel())[0].reshape(N, ns, ns)
-            T, Hq, gq, CD, ce = self.eliminate(J, c, grad, H)
+            T, Hq, gq, CD, ce = self.eliminate(J, c, grad)
             W, t = T[:, :, :-1], T[:, :, -1]
-            if H is not None:
-                Hq, gq = self._convexify(Hq, gq, CD, ce, lo_g, hi_g)
             # the QP in HPIPM's layout [dx_0, du_0, ..., dx_N]
             lba, uba = np.zeros((N, nx + ng)), np.zeros((N, nx + ng))
             lba[:, :nx] = uba[:, :nx] = -T[:, :nx, -1]
@@ -305,9 +240,9 @@ class StageSQP:
             self._h_vals[:-1] = Hq.ravel()
             g = np.concatenate([gq.ravel(), np.zeros(nx)])
             lbx, ubx = (lbw - w)[self._keep], (ubw - w)[self._keep]
-            lbx[:nx] = ubx[:nx] = x0 - w[:nx]
-            x, lam_a, lam_x = self._qp(self._h_vals[self._h_src], self._a_vals[self._a_src], g, lba.ravel(),
-                                       uba.ravel(), lbx, ubx)
+            lbx[:nx] = ubx[:nx] = p[:nx] - w[:nx]
+            x, _, _ = self._qp(self._h_vals[self._h_src], self._a_vals[self._a_src], g, lba.ravel(),
+                                uba.ravel(), lbx, ubx)
             st = self.qp.stats(1)  # (see __init__)
             qp_iters += int(st.get("iter_count", 0))
             if not st["success"]:
@@ -317,14 +252,8 @@ class StageSQP:
             step = np.zeros_like(w)
             step[self._keep] = d
             dxu = d[:N * nxu].reshape(N, nxu)
-            step[:N * nz].reshape(N, nz)[:, self._alg_w] = (W[:, nx:] @ dxu[:, :, None])[:, :, 0] + t[:, nx:]
-            if kind is Hessian.LAGRANGIAN or s.line_search:
-                mu = self._multipliers(J, grad, H, step, lam_a, lam_x)
-            alpha = 1.0
-            if s.line_search:
-                rho = max(rho, 2.0 * float(np.abs(mu).max(initial=0.0)), 1.0)
-                alpha = self._line_search(w, step, grad, PK, lbg, ubg, x0, rho, s)
-            w = w + alpha * step
+            step[:N * nz].reshape(N, nz)[:, nxu:] = (W[:, nx:] @ dxu[:, :, None])[:, :, 0] + t[:, nx:]
+            w = w + step
             if np.abs(step).max() < s.step_tol:  # (the full step: a short one does not mean converged)
                 status = SolverStatus.SUCCESS
                 break
@@ -335,51 +264,4 @@ class StageSQP:
             status = SolverStatus.FEASIBLE
         elif status is SolverStatus.MAX_ITER and s.real_time:
             status = SolverStatus.REAL_TIME
-        return SQPResult(status, w, iterations, qp_iters, violation, cost, time.perf_counter() - t0, mu.ravel())
-
-    def _convexify(self, Hq: np.ndarray, gq: np.ndarray, CD: np.ndarray, ce: np.ndarray, lo_g: np.ndarray,
-                   hi_g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Each stage's QP block made positive definite: rho |J_eq d + c_eq - b|^2 of the equality path
-        rows added (the QP's solution is unchanged where they hold), then eigenvalues raised to the floor."""
-        rho, eq = self.settings.equality_penalty, (lo_g == hi_g)
-        if rho > 0 and eq.any():
-            A = CD * eq[:, :, None]
-            r = np.where(eq, ce - lo_g, 0.0)
-            Hq = Hq + 2 * rho * A.transpose(0, 2, 1) @ A
-            gq = gq + 2 * rho * (A.transpose(0, 2, 1) @ r[:, :, None])[:, :, 0]
-        lam, V = np.linalg.eigh((Hq + Hq.transpose(0, 2, 1)) / 2)
-        return (V * np.maximum(lam, self.settings.hessian_floor)[:, None, :]) @ V.transpose(0, 2, 1), gq
-
-    def _multipliers(self, J: np.ndarray, grad: np.ndarray, H: np.ndarray | None, step: np.ndarray,
-                     lam_a: np.ndarray, lam_x: np.ndarray) -> np.ndarray:
-        """The stage constraints' multipliers (N, nc) of the full-space QP: the path rows' are the
-        reduced QP's own; the dynamics rows' follow from stationarity in the eliminated variables
-        (x_k+1, z_k), backwards from the last stage (x_k+1 also enters stage k+1 and its bounds)."""
-        pr, N, nx, nd = self.pr, self.pr.horizon, self.pr.nx, self.nd
-        mu = np.zeros((N, pr.nc))
-        mu[:, nd:] = lam_a.reshape(N, nx + self.ng)[:, nx:]
-        ds = self._stages(step).reshape(N, self.ns)
-        Hs = grad + (np.einsum("kij,kj->ki", H, ds) if H is not None else self._h * ds if self._h is not None else 0)
-        carry = np.zeros(nx)  # stage k+1's terms in x_k+1's stationarity, and x_k+1's bound multiplier
-        for k in range(N - 1, -1, -1):
-            Jk = J[k][:, self._dep]
-            r = Hs[k, self._dep] + Jk[nd:].T @ mu[k, nd:]
-            r[:nx] += carry + lam_x[self._col[k + 1]:self._col[k + 1] + nx]
-            mu[k, :nd] = np.linalg.solve(Jk[:nd].T, -r)
-            carry = Hs[k, :nx] + J[k, :, :nx].T @ mu[k]
-        return mu
-
-    def _line_search(self, w: np.ndarray, step: np.ndarray, grad: np.ndarray, PK: np.ndarray, lbg: np.ndarray,
-                     ubg: np.ndarray, x0: np.ndarray, rho: float, s: SQPSettings) -> float:
-        """The step length along `step` by backtracking on f + rho |c|_1 (Armijo's condition on the
-        merit's directional derivative: the cost's along the step, minus rho |c|_1, which the
-        linearized constraints remove); the shortest tried when none satisfies it."""
-        over, f = self._violations(w, PK, lbg, ubg, x0)
-        merit, slope = f + rho * over.sum(), float(grad.ravel() @ self._stages(step)) - rho * over.sum()
-        alpha = 1.0
-        for _ in range(s.max_backtracks):
-            over_a, f_a = self._violations(w + alpha * step, PK, lbg, ubg, x0)
-            if f_a + rho * over_a.sum() <= merit + s.armijo * alpha * min(slope, 0.0):
-                break
-            alpha /= 2
-        return alpha
+        return SQPResult(status, w, iterations, qp_iters, violation, cost, time.perf_counter() - t0)

@@ -171,10 +171,10 @@ def test_sqp_eliminates_the_implicit_dynamics_exactly(params, scene) -> None:
     sqp, pr = ocp.sqp, ocp.sqp.pr
     N, nx, ns, nd, nxu = pr.horizon, pr.nx, sqp.ns, sqp.nd, pr.nx + sqp.nu
     p = np.concatenate([h, ref, water()])
-    stages, PK = sqp._stages(sol.w), sqp._stage_parameters(p)
-    c, J, grad = (o.copy() for o in sqp._lin(stages, PK))
+    stages = sqp._stages(sol.w)
+    c, J, grad = (o.copy() for o in sqp._lin(stages, p))
     c, J, grad = c.reshape(N, pr.nc), J.reshape(N, ns, pr.nc).transpose(0, 2, 1), grad.reshape(N, ns)
-    H = sqp._cost_hessian(stages, PK)[0].reshape(N, ns, ns)
+    H = sqp._cost_hessian(stages, p)[0].reshape(N, ns, ns)
     T, Hq, gq, CD, ce = sqp.eliminate(J, c, grad)
     E = np.zeros((N, ns, nxu + 1))
     E[:, :nxu, :nxu] = np.eye(nxu)

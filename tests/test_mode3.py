@@ -15,6 +15,21 @@ from validation.closed_loop import initial_state
 from validation.scenarios import wall_approach
 
 
+@pytest.fixture(scope="module")
+def contact_case(params, scene):
+    """Thrusters dead, hull 0.35 m from the wall approaching at 0.3 m/s, tip on the wall."""
+    model = UVMSModel(params, scene.water)
+    ocp = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings())
+    lo, hi = params.input_bounds()
+    lo[:8] = hi[:8] = 0.0
+    ocp.limit_inputs(lo, hi)
+    h, _ = initial_state(params, wall_approach(0.35, 0.3))
+    n = params.n_joints
+    h[6:6 + n] = ReachPosture(model, scene.planes[0])(h)
+    h[6:6 + n] = ocp.onto_plane(h)
+    return model, ocp, h
+
+
 def test_wall_inverse_kinematics_is_the_nearest_posture_on_the_plane(contact_case, scene) -> None:
     """Eq. Wall_InvKin from a posture 5 cm off the plane: the result puts the tip on the plane
     (1e-9 m), and the change in q is parallel to the constraint's gradient at the result, taken by

@@ -55,7 +55,7 @@ class ElasticMinViolation:
         cons = ca.vertcat(midpoint_residual(model, hk, uk, ak, hk1, s.dt, P[2 * ns:]), self.clear(hk1) + sk)
         problem = StageProblem(nx=ns, nv=nz - ns, horizon=N, np=2 * ns + 3, cost=ca.Function("c", [st, P], [cost]),
                                constraints=ca.Function("g", [st, P], [cons]))
-        self.sqp = StageSQP(problem, "proto_minviol", algebraic=nv, settings=SQPSettings(qp_mu0=0.1))
+        self.sqp = StageSQP(problem, "proto_minviol", n_alg=nv, settings=SQPSettings(qp_mu0=0.1))
         self.lbw, self.ubw = np.full(N * nz + ns, -np.inf), np.full(N * nz + ns, np.inf)
         q_lo = np.array([lk.joint_range[0] for lk in p.arm.links])
         q_hi = np.array([lk.joint_range[1] for lk in p.arm.links])
