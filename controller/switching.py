@@ -73,6 +73,7 @@ class SwitchingSettings:
     certificate: CertificateSettings = field(default_factory=CertificateSettings)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm
+    deadline_lead: float = 0.0  # s: the deploy deadline fires this much earlier
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh (else maximum braking, arm held)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
     release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
@@ -358,7 +359,7 @@ class SwitchingNMPC:
         if not any(close):
             return False
         _, us, dt = ocp2.deploy_guess(h, self.settings.mode2.horizon, self.current)
-        return s.dt * (1 + close.index(True)) <= len(us) * dt + s.dt
+        return s.dt * (1 + close.index(True)) <= len(us) * dt + s.dt + self.settings.deadline_lead
 
     def _step_mode2(self, h: np.ndarray, cert: Certificate | None = None) -> _ModeStep:
         self._reported_mode = Mode.II
