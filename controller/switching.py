@@ -73,7 +73,7 @@ class SwitchingSettings:
     certificate: CertificateSettings = field(default_factory=CertificateSettings)
     switching: bool = True  # False: Mode I only, no certificate (the plain NMPC baseline)
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm
-    deadline_lead: float = 0.0  # s: the deploy deadline fires this much earlier
+    deadline_lead: float = 0.1  # s: the deploy deadline fires this much earlier (one Mode I period)
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh (else maximum braking, arm held)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
     release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
@@ -346,12 +346,13 @@ class SwitchingNMPC:
     def _deadline(self, h: np.ndarray, cert: Certificate) -> bool:
         """With `deploy_deadline`: whether the braking rollout brings something Mode II protects (every
         body but the tip and the last link against the contact plane: ModeIIOCP.protected_clearance)
-        within the margin (first node t_hit) no later than one control period after the time Mode
-        II's deploy rollout needs to put the tip on that plane (t_c): waiting another step would
-        leave Mode II no time. The tip and the last link are left out so that an arm still on the
-        wall after Mode III does not count. It also applies right after Mode III lets go: with a
-        current pushing the hull back, the rollout soon returns it, and Mode II then re-plans with
-        the arm still near the wall (docs/decisions.md, 'The deploy deadline')."""
+        within the margin (first node t_hit) no later than one control period plus `deadline_lead`
+        after the time Mode II's deploy rollout needs to put the tip on that plane (t_c): waiting
+        longer would leave Mode II no time, and the lead keeps the stowed arm's base links off the
+        wall when the plant drifts closer than the model. The tip and the last link are left out so
+        that an arm still on the wall after Mode III does not count. It also applies right after Mode
+        III lets go: with a current pushing the hull back, the rollout soon returns it, and Mode II
+        then re-plans with the arm still near the wall (docs/decisions.md, 'The deploy deadline')."""
         if not self.settings.deploy_deadline or cert.rollout_clearance >= 0:
             return False
         s, ocp2 = self.settings.mode1, self.ocp2(self._closest_plane(cert.rollout))
