@@ -71,6 +71,7 @@ class ModeIIISettings:
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
     max_iter: int = 200
     tol: float = 1e-6
+    acceptable_iter: int = 3  # IPOPT stops after this many iterations at its acceptable level (0: never)
     ipopt_options: dict = field(default_factory=dict)
 
 
@@ -160,7 +161,7 @@ class ModeIIIOCP:
             "mu_init": 1e-2,
             "sb": "yes",
             "acceptable_tol": 1e-2,
-            "acceptable_iter": 3,
+            "acceptable_iter": s.acceptable_iter,
             "acceptable_constr_viol_tol": 1e-5,
             **s.ipopt_options,
         }
