@@ -7,6 +7,9 @@ posed, so that a change of solver or options is measured offline, side by side, 
   python bench/mode3_solvers.py --record 2   # the problems of `--controller` (a preset; default: switching)
                                              # on wall-headon, wall-oblique and arm-deployed, seeds 0-1 (1 min)
   python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 15 min)
+  python bench/mode3_solvers.py --record 2 --families thrusters-dead
+  python bench/mode3_solvers.py --options default,converged --name mode3_solvers_thrusters_dead
+                                             # the option sets whose names start so, on thrusters-dead's problems
   python bench/mode3_solvers.py --horizons 5,10   # the default options on the problems cut to each
                                              # horizon (intervals; at most the recorded one), 4 min
   python bench/mode3_solvers.py --breakdown  # the default options: where an iteration's time goes
@@ -57,6 +60,7 @@ OPTIONS: dict[str, dict] = {
     "filter's infeasibility limit x0.1": {"theta_max_fact": 0.1},
     "first acceptable iterate": {"acceptable_iter": 1},
     "limit x1 and first acceptable iterate": {"theta_max_fact": 1.0, "acceptable_iter": 1},
+    "converged (no acceptable-level stop)": {"acceptable_iter": 0},
 }
 
 
@@ -89,8 +93,8 @@ def record_problems(scenario, seed: int, preset: str) -> list[dict]:
     return calls
 
 
-def record(seeds: int, workers: int, controller: str) -> None:
-    jobs = [(f, s, controller) for f in FAMILIES for s in range(seeds)]
+def record(seeds: int, workers: int, controller: str, families: tuple[str, ...] = FAMILIES) -> None:
+    jobs = [(f, s, controller) for f in families for s in range(seeds)]
     calls: list[dict] = []
     with ProcessPoolExecutor(workers) as ex:
         for c in tqdm(ex.map(_record_run, jobs), total=len(jobs), desc="closed loops", unit="run"):
@@ -100,7 +104,7 @@ def record(seeds: int, workers: int, controller: str) -> None:
     nan_like = {k: np.full_like(next(c[k] for c in calls if c[k] is not None), np.nan) for k in ("lam_g", "lam_x")}
     PROBLEMS.parent.mkdir(exist_ok=True)
     np.savez_compressed(PROBLEMS, **{k: np.array([c[k] if c[k] is not None else nan_like.get(k) for c in calls])
-                                     for k in calls[0]}, seeds=seeds)
+                                     for k in calls[0]}, seeds=seeds, families=",".join(families))
     print(f"{len(calls)} problems ({sum(c['lam_g'] is None for c in calls)} cold) -> {PROBLEMS}")
 
 
@@ -118,11 +122,14 @@ def mp(v: np.ndarray) -> str:
     return f"{np.median(v):.0f} / {np.percentile(v, 95):.0f}" if len(v) else "-"
 
 
-def evaluate() -> None:
+def evaluate(prefixes: tuple[str, ...] = ("",), stem: str = "mode3_solvers") -> None:
+    """The option sets whose names start with one of `prefixes` (the first is the reference) on the
+    recorded problems; writes bench/results/{stem}.md."""
     data, cold, model, scene = load_problems()
     n = len(cold)
     results: dict[str, list[tuple]] = {}
-    for name, opts in tqdm(OPTIONS.items(), desc="option sets", unit="set"):
+    chosen = {k: v for k, v in OPTIONS.items() if k.startswith(prefixes)}
+    for name, opts in tqdm(chosen.items(), desc="option sets", unit="set"):
         ocps: dict[int, ModeIIIOCP] = {}
         rows = []
         for i in range(n):
@@ -135,26 +142,30 @@ def evaluate() -> None:
             sol = ocp.solve(data["h0"][i], data["guess"][i], data["current"][i], duals)
             rows.append((sol.status.usable, sol.iterations, sol.solve_time, sol.cost))
         results[name] = rows
-    base = results[next(iter(OPTIONS))]
+    base = results[next(iter(chosen))]
+    families = str(data["families"]) if "families" in data else ", ".join(FAMILIES)
     lines = ["# Mode III's IPOPT on recorded problems", "",
              f"`python bench/mode3_solvers.py` ({platform.machine()}, casadi {ca.__version__}, IPOPT with MUMPS). "
              f"{n} Mode III problems ({int(cold.sum())} cold starts from Algorithm 2's guess, {n - int(cold.sum())} "
              "warm starts from the shifted plan and its multipliers) that the controller posed in MuJoCo "
-             f"closed loops of {', '.join(FAMILIES)}, seeds 0-{int(data['seeds']) - 1} (`--record`). Iterations and "
-             "times: median / p95 over the problems; cost: the median of (cost - default's cost) over the "
-             "problems both solve (IPOPT's acceptable level stops at dual infeasibility 1e-2, so costs differ "
-             "in the third digit).", "",
+             f"closed loops of {families}, seeds 0-{int(data['seeds']) - 1} (`--record`). Iterations and "
+             "times: median / p95 over the problems; cost: the median of (cost - the first row's cost) and of "
+             "their ratio over the problems both solve, and on how many of them the first row's costs "
+             "over 10% more.", "",
              "| options | usable | iterations, warm | iterations, cold | time, warm [ms] | time, cold [ms] "
-             "| ms per iteration | cost - default's |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| ms per iteration | cost - first row's | cost / first row's | first row's > 1.1 x |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for name, rows in results.items():
         ok, it, t, cost = (np.array(c) for c in zip(*rows, strict=True))
         both = ok & np.array([b[0] for b in base])
-        dc = np.median(cost[both] - np.array([b[3] for b in base])[both]) if both.any() else np.nan
+        ref = np.array([b[3] for b in base])
+        dc = np.median(cost[both] - ref[both]) if both.any() else np.nan
+        rc = np.median(cost[both] / ref[both]) if both.any() else np.nan
+        worse = int(np.sum(ref[both] > 1.1 * cost[both]))
 
         lines.append(f"| {name} | {int(ok.sum())}/{n} | {mp(it[~cold])} | {mp(it[cold])} | {mp(1e3 * t[~cold])} | "
-                     f"{mp(1e3 * t[cold])} | {1e3 * t.sum() / max(it.sum(), 1):.1f} | {dc:+.1e} |")
-    (OUT / "mode3_solvers.md").write_text("\n".join(lines) + "\n")
+                     f"{mp(1e3 * t[cold])} | {1e3 * t.sum() / max(it.sum(), 1):.1f} | {dc:+.1e} | {rc:.3g} | {worse} |")
+    (OUT / f"{stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
 
@@ -254,13 +265,17 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--workers", type=int, default=2, help="closed loops in parallel while recording")
     ap.add_argument("--controller", default="switching",
                     help="the preset whose problems --record records (assets/presets.toml)")
+    ap.add_argument("--families", default=",".join(FAMILIES), help="comma-separated scenarios --record runs")
+    ap.add_argument("--options", default="", help="comma-separated prefixes of the option sets to compare "
+                    "(the first of them in OPTIONS is the reference row; default: all)")
+    ap.add_argument("--name", default="mode3_solvers", help="the results file's stem under bench/results")
     ap.add_argument("--horizons", help="comma-separated Mode III horizons to compare instead of the option sets")
     ap.add_argument("--breakdown", action="store_true", help="where an iteration's time goes (not the option sets)")
     a = ap.parse_args(argv)
     if a.record is not None:
         if a.record < 1 or a.workers < 1:
             raise SystemExit(f"--record {a.record}, --workers {a.workers}; allowed: both >= 1")
-        record(a.record, a.workers, a.controller)
+        record(a.record, a.workers, a.controller, tuple(f for f in a.families.split(",") if f))
     if a.horizons:
         try:
             values = [int(v) for v in a.horizons.split(",")]
@@ -272,12 +287,17 @@ def main(argv: list[str] | None = None) -> None:
     elif a.breakdown:
         breakdown()
     else:
-        evaluate()
+        prefixes = tuple(p for p in a.options.split(",") if p) or ("",)
+        unknown = [p for p in prefixes if not any(k.startswith(p) for k in OPTIONS)]
+        if unknown:
+            raise SystemExit(f"--options {unknown}; allowed: prefixes of {list(OPTIONS)}")
+        evaluate(prefixes, a.name)
 
 
 if __name__ == "__main__":
     from validation import manifest
 
-    name = "mode3_breakdown" if "--breakdown" in sys.argv else "mode3_solvers"
+    name = "mode3_breakdown" if "--breakdown" in sys.argv else next(
+        (sys.argv[i + 1] for i, v in enumerate(sys.argv[:-1]) if v == "--name"), "mode3_solvers")
     with manifest.recorded(Path(__file__).parent / "results" / f"{name}.manifest.json"):
         main(sys.argv[1:])
