@@ -117,14 +117,19 @@ def load_problems() -> tuple[dict[str, np.ndarray], np.ndarray, UVMSModel, Scene
     return data, np.isnan(data["lam_g"][:, 0]), UVMSModel(load_params(), scene.water), scene
 
 
+def recorded(data: dict[str, np.ndarray]) -> str:
+    """The scenarios whose closed loops posed the recorded problems."""
+    return str(data["families"]).replace(",", ", ") if "families" in data else ", ".join(FAMILIES)
+
+
 def mp(v: np.ndarray) -> str:
     """median / p95 of v, rounded ("-" when empty)."""
     return f"{np.median(v):.0f} / {np.percentile(v, 95):.0f}" if len(v) else "-"
 
 
 def evaluate(prefixes: tuple[str, ...] = ("",), stem: str = "mode3_solvers") -> None:
-    """The option sets whose names start with one of `prefixes` (the first is the reference) on the
-    recorded problems; writes bench/results/{stem}.md."""
+    """The option sets whose names start with one of `prefixes` (the first of them in OPTIONS is the
+    reference row) on the recorded problems; writes bench/results/{stem}.md."""
     data, cold, model, scene = load_problems()
     n = len(cold)
     results: dict[str, list[tuple]] = {}
@@ -143,12 +148,12 @@ def evaluate(prefixes: tuple[str, ...] = ("",), stem: str = "mode3_solvers") -> 
             rows.append((sol.status.usable, sol.iterations, sol.solve_time, sol.cost))
         results[name] = rows
     base = results[next(iter(chosen))]
-    families = str(data["families"]) if "families" in data else ", ".join(FAMILIES)
+    ref = np.array([b[3] for b in base])
     lines = ["# Mode III's IPOPT on recorded problems", "",
              f"`python bench/mode3_solvers.py` ({platform.machine()}, casadi {ca.__version__}, IPOPT with MUMPS). "
              f"{n} Mode III problems ({int(cold.sum())} cold starts from Algorithm 2's guess, {n - int(cold.sum())} "
              "warm starts from the shifted plan and its multipliers) that the controller posed in MuJoCo "
-             f"closed loops of {families}, seeds 0-{int(data['seeds']) - 1} (`--record`). Iterations and "
+             f"closed loops of {recorded(data)}, seeds 0-{int(data['seeds']) - 1} (`--record`). Iterations and "
              "times: median / p95 over the problems; cost: the median of (cost - the first row's cost) and of "
              "their ratio over the problems both solve, and on how many of them the first row's costs "
              "over 10% more.", "",
@@ -158,7 +163,6 @@ def evaluate(prefixes: tuple[str, ...] = ("",), stem: str = "mode3_solvers") -> 
     for name, rows in results.items():
         ok, it, t, cost = (np.array(c) for c in zip(*rows, strict=True))
         both = ok & np.array([b[0] for b in base])
-        ref = np.array([b[3] for b in base])
         dc = np.median(cost[both] - ref[both]) if both.any() else np.nan
         rc = np.median(cost[both] / ref[both]) if both.any() else np.nan
         worse = int(np.sum(ref[both] > 1.1 * cost[both]))
@@ -247,7 +251,7 @@ def breakdown() -> None:
     lines = ["# Where a Mode III interior-point iteration's time goes", "",
              f"`python bench/mode3_solvers.py --breakdown` ({platform.machine()}, casadi {ca.__version__}, IPOPT "
              f"with MUMPS): the {len(cold)} Mode III problems ({int(cold.sum())} cold) recorded in closed loops of "
-             f"{', '.join(FAMILIES)}, seeds 0-{int(data['seeds']) - 1} (`--record`), default options, "
+             f"{recorded(data)}, seeds 0-{int(data['seeds']) - 1} (`--record`), default options, "
              f"{iterations} iterations in all. Wall time per iteration [ms], summed over the problems; the callbacks "
              "as IPOPT times them (the compiled stage derivatives and CasADi's block assembly around them).", "",
              "| part | ms per iteration | share |", "|---|---|---|"]
@@ -275,7 +279,12 @@ def main(argv: list[str] | None = None) -> None:
     if a.record is not None:
         if a.record < 1 or a.workers < 1:
             raise SystemExit(f"--record {a.record}, --workers {a.workers}; allowed: both >= 1")
-        record(a.record, a.workers, a.controller, tuple(f for f in a.families.split(",") if f))
+        from validation.scenarios import SCENARIOS
+
+        families = tuple(f for f in a.families.split(",") if f)
+        if not families or any(f not in SCENARIOS for f in families):
+            raise SystemExit(f"--families {a.families!r}; allowed: comma-separated names of {sorted(SCENARIOS)}")
+        record(a.record, a.workers, a.controller, families)
     if a.horizons:
         try:
             values = [int(v) for v in a.horizons.split(",")]
