@@ -15,11 +15,8 @@ Objective (eq. Obj3): sum_i w_i relu(-d0_dot_i), w_i = 1 + (N - i)/(N - 1): the 
 as the hull's approach speed [m/s], relu smoothed at 1 cm/s (controller.transcription.smooth_relu;
 at 1 mm/s its curvature made the Hessian indefinite). Not in the paper: `clearance_weight` [1/s]
 times the hull's shortfall from `hull_clearance` (5 cm) to the contact plane, relu-smoothed at 1 cm
-(both parameters of the compiled problem). Also not in the paper, with `strut_weight` > 0 and no
-thrust that can push the hull away: `strut_weight` [1/rad^2] times the squared distance of the last
-node's roll, pitch and joint angles from the strut's (controller.strut: a rest with the tip on the
-plane), once the hull approaches slower than `strut_speed`. Regularization: 1e-5 |u|^2, 1e-6 |F|^2
-and 1e-3 of the squared angular and joint rates (without it the inputs and the posture are free once the hull
+(both parameters of the compiled problem). Regularization: 1e-5 |u|^2, 1e-6 |F|^2 and 1e-3 of the
+squared angular and joint rates (without it the inputs and the posture are free once the hull
 separates, and IPOPT creeps along that valley). IPOPT stops at its acceptable level (dual
 infeasibility 1e-2, constraints 1e-5) after 3 such iterations. The horizon is 5 intervals (0.5 s),
 not the paper's 20. Evidence: docs/decisions.md, 'Over 0.5 s' and 'J_III's hull-clearance term'.
@@ -37,7 +34,6 @@ import numpy as np
 from controller.kinematics import euler_zyx
 from controller.model import WATER, UVMSModel, water
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
-from controller.strut import Strut, StrutProblem
 from controller.transcription import (
     SolverStatus,
     clearances,
@@ -73,14 +69,6 @@ class ModeIIISettings:
     hull_clearance: float = 0.05  # m: J_III also pays for the hull closer than this to the contact plane
     clearance_weight: float = 1.0  # 1/s, on that shortfall (the approach speed's weights are 1 to 2)
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
-    # 1/rad^2: without thrust that can push the hull away from the plane, J_III also pays this times
-    # the squared distance of the last node's roll, pitch and joint angles [rad] from the strut's
-    # (controller.strut: a rest with the tip on the plane, which 0.5 s plans cannot see). 0: off
-    strut_weight: float = 0.0
-    # m/s: the pull towards the strut starts once the hull approaches the plane slower than this
-    # (first stop the approach, then move to the rest: pulled at once, the arm's moves while it
-    # stopped the hull overloaded the tip, experiments/mode3_strut)
-    strut_speed: float = 0.05
     max_iter: int = 200
     tol: float = 1e-6
     acceptable_iter: int = 3  # IPOPT stops after this many iterations at its acceptable level (0: never)
@@ -143,12 +131,8 @@ class ModeIIIOCP:
             ca.SX.sym("a", nv),
             ca.SX.sym("F", 3),
         )
-        # h0, water, hull clearance and its weight, the strut's weight and posture (roll, pitch, q), stage weight w_i
-        n_global = ns + WATER + 2 + 1 + 2 + n
-        P = ca.SX.sym("P", n_global + 1)
-        vc, wi = P[ns : ns + WATER], P[n_global]
-        strut_w, strut_pose = P[ns + WATER + 2], P[ns + WATER + 3 : n_global]
-        posture_error = ca.vertcat(h[3:5], h[6 : 6 + n]) - strut_pose
+        P = ca.SX.sym("P", ns + WATER + 2 + 1)  # h0, water, hull clearance and its weight, stage weight w_i
+        vc, wi = P[ns : ns + WATER], P[ns + WATER + 2]
         hm = (h + h1) / 2
         friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
@@ -165,10 +149,9 @@ class ModeIIIOCP:
             nx=ns,
             nv=nu + nv + 3,
             horizon=N,
-            np=n_global,
+            np=ns + WATER + 2,
             np_stage=1,
             cost=ca.Function("cost3", [st, P], [cost]),
-            terminal_cost=ca.Function("strut3", [h, P[:n_global]], [strut_w * ca.dot(posture_error, posture_error)]),
             constraints=ca.Function("cons3", [st, P], [cons]),
         )
         ipopt = {
@@ -214,9 +197,6 @@ class ModeIIIOCP:
         self._ik = ca.nlpsol("wall_ik", "ipopt", {"x": q, "p": ca.vertcat(pose, q0), "f": ca.sumsqr(q - q0), "g": gap},
                              {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 50,
                                                              "tol": 1e-10}})
-
-        self._strut_problem: StrutProblem | None = None  # built on first use
-        self.strut: Strut | None = None  # the last solve's strut (None: not asked, or none found)
 
     def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
@@ -376,18 +356,8 @@ class ModeIIIOCP:
         if s.force_free_gap is not None and self.away_thrust(h0) > 0.0 \
                 and float(tip_gap(self.model, h0, self.planes[self.contact])) > s.force_free_gap:
             ubw[self.nz - 3] = 0.0  # F_n of the first interval (its friction rows then zero F_t)
-        n, previous = self.model.n_joints, self.strut if duals is not None else None
-        self.strut = None
-        plane = self.planes[self.contact]
-        approach = -float(np.asarray(self.model.closing_speeds(h0, plane.normal, plane.offset)).ravel()[0])
-        if s.strut_weight > 0.0 and approach < s.strut_speed and self.away_thrust(h0) == 0.0:
-            if self._strut_problem is None:
-                self._strut_problem = StrutProblem(self.model, self.planes, self.contact, s.friction, s.distance_margin)
-            self._strut_problem.limit_inputs(self._lo_u, self._hi_u)
-            self.strut = self._strut_problem.solve(h0, current, previous)
-        strut = (np.zeros(3 + n) if self.strut is None
-                 else np.r_[s.strut_weight, self.strut.h[3:5], self.strut.h[6:6 + n]])
-        P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight], strut, self.weights])
+        P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight],
+                            self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
         solver = self.solver
         if duals is not None:
