@@ -280,16 +280,12 @@ class UVMSModel:
         """One RK4 step from numpy arrays: `rk4` compiled to C on first use (about 5 s, then cached
         on disk; controller.codegen) and called without conversions, about 12x faster than the SX
         function (bench/results/model_eval.md)."""
-        Fw, Rw, vc, ac = self.defaults(Fw, Rw, vc, ac)
-        out = self.compiled_rk4()(h, u, Fw, np.asarray(Rw, float).T, vc, ac, np.array([dt], float))
-        return out[0].copy()
-
-    def compiled_rk4(self) -> NumpyCall:
-        """`rk4` compiled to C (controller.codegen; the obstacle frame Rw given transposed)."""
         if self._rk4_compiled is None:
             name = f"rk4_{self.params.name}_{self.params.arm.name}"
             self._rk4_compiled = NumpyCall(compiled([self.rk4], name)["rk4"])
-        return self._rk4_compiled
+        Fw, Rw, vc, ac = self.defaults(Fw, Rw, vc, ac)
+        out = self._rk4_compiled(h, u, Fw, np.asarray(Rw, float).T, vc, ac, np.array([dt], float))
+        return out[0].copy()
 
     def mass_and_bias(self, h, vc=None) -> tuple[np.ndarray, np.ndarray]:
         """The mass matrix M(q) and the bias (N, N m; `bias` with the water moving at vc [m/s])

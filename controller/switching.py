@@ -35,7 +35,6 @@ from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
 from controller.model import UVMSModel, water
-from controller.plan_feedback import FeedbackScales, PlanFeedback, references
 from controller.protocol import StepInfo, Task
 from controller.rollouts import BrakingPolicy, JointHold, simulate
 from controller.transcription import tip_gap
@@ -84,10 +83,6 @@ class SwitchingSettings:
     observe_current: bool = True  # add controller.estimator's estimate of the unknown current and hull weight
     observer: ObserverSettings = field(default_factory=ObserverSettings)
     plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
-    # the modes whose plans are committed as feedback policies, TV-LQR along the plan (controller.plan_feedback;
-    # StepInfo.feedback); others commit their plan's inputs open loop
-    committed_feedback: tuple[Mode, ...] = ()
-    feedback_scales: FeedbackScales = field(default_factory=FeedbackScales)
 
 
 @dataclass(frozen=True)
@@ -141,7 +136,6 @@ class SwitchingNMPC:
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))
         self._mode2: dict[int, ModeIIOCP] = {}
         self._mode3: dict[int, ModeIIIOCP] = {}
-        self._feedback: PlanFeedback | None = None
         self.set_failed_thrusters(settings.failed_thrusters)
         if settings.switching:
             for plane in range(len(self.planes)):  # no assembly stall at the first switch, nor at a new N_p
@@ -263,28 +257,13 @@ class SwitchingNMPC:
         else:
             out = self._step_mode3(h)
         self.last_u = np.clip(out.u, self.lo, self.hi)
-        feedback, h_ref = self._committed_feedback(out, t_a - t)
         info = StepInfo(t=t, mode=self._reported_mode, status=out.status, fallback=out.fallback,
                         solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=out.iterations,
                         dt=out.dt, horizon=out.horizon, h_pred=out.h_pred, u_pred=out.u_pred,
-                        feedback=feedback, h_ref=h_ref, contact_force=out.contact_force, contact_plane=self.contact,
-                        distances=distances,
+                        contact_force=out.contact_force, contact_plane=self.contact, distances=distances,
                         closing_speeds=closing, certificate=out.certificate, switch=self._switch,
                         impact_force=out.impact_force)
         return self.last_u, info
-
-    def _committed_feedback(self, out: _ModeStep, lead: float) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """The plan's TV-LQR gains and the states its rows compare against (StepInfo.feedback, h_ref),
-        when the step's mode commits feedback and the plan has its states (else None, None). `lead`
-        [s]: how long after its state's sample a row's input acts (the planned-for latency)."""
-        if self._reported_mode not in self.settings.committed_feedback or out.u_pred is None or out.h_pred is None \
-                or len(out.h_pred) != len(out.u_pred) + 1:
-            return None, None
-        if self._feedback is None:
-            self._feedback = PlanFeedback(self.model, self.settings.feedback_scales)
-        dead = tuple(int(i) for i in np.flatnonzero((self.lo == 0.0) & (self.hi == 0.0)))
-        gains = self._feedback.gains(out.h_pred, out.u_pred, out.dt, self.current, dead)
-        return gains, references(out.h_pred, len(out.u_pred), out.dt, lead)
 
     def _step_mode1(self, h: np.ndarray, t: float) -> _ModeStep:
         """Mode I's step, or Mode II's first when the certificate or the deadline ends Mode I."""

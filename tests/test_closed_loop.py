@@ -174,44 +174,6 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, monkey
     assert [st.fallback != "none" for st in s.steps] == [False, False, strict, strict, strict, False]
 
 
-def test_strict_real_time_commits_a_plan_with_feedback(monkeypatch) -> None:
-    """A plan with feedback (StepInfo.feedback, h_ref): steps 2 and 3 overrun, and the plant gets,
-    after the delay, u_pred[k] + feedback[k] @ (h - h_ref[k]) with h the state the loop measured at
-    that step (the oracle: the plant's own state, logged at each step's sample)."""
-    import validation.closed_loop as loop
-    from controller.protocol import StepInfo
-    from uvms_mj.plant import Plant
-
-    clock, calls, step = [0.0], [], Plant.step
-
-    def logged(self, u, duration):
-        calls.append((round(self.t, 6), self.state(), np.array(u, float)))
-        return step(self, u, duration)
-
-    class Feedback(_Planner):
-        def step(self, h, t):
-            u, info = super().step(h, t)
-            rng = np.random.default_rng(self.k)
-            K = 1e-3 * rng.standard_normal((3, self.n, len(h)))
-            ref = np.asarray(h, float) + 1e-2 * rng.standard_normal((3, len(h)))
-            return u, StepInfo(t=t, dt=0.1, mode="plan", u_pred=info.u_pred, feedback=K, h_ref=ref)
-
-    monkeypatch.setattr(Plant, "step", logged)
-    monkeypatch.setattr(loop.time, "perf_counter", lambda: clock[0])
-    ctl = Feedback(clock, slow={2, 3})
-    sc = get("wall-headon").with_overrides({"duration": "0.4", "faults": "none", "current.velocity": "0,0,0"})
-    run(sc, controller=ctl, mismatch=NONE, latency="0.05:strict")
-    accepted = Feedback(clock, slow=set())
-    accepted.reset(type("T", (), {"params": load_params()})())
-    accepted.k = 1
-    _, info = accepted.step(next(c[1] for c in calls if c[0] == 0.1), 0.1)  # step 1's answer, from its sample
-    for k, (t, _, u) in zip((1, 2), [c for c in calls if c[0] in (0.25, 0.35)], strict=True):
-        sample = next(c[1] for c in calls if c[0] == pytest.approx(t - 0.05))
-        dh = sample - info.h_ref[k]
-        dh[3:6] = (dh[3:6] + np.pi) % (2 * np.pi) - np.pi
-        np.testing.assert_allclose(u, info.u_pred[k] + info.feedback[k] @ dh, rtol=1e-12, atol=1e-12)
-
-
 def test_overrides_parse_numbers_and_tuples() -> None:
     sc = get("wall-headon").with_overrides({"initial.velocity": "0.5,0,0", "current.velocity": "0.1,0,0",
                                             "faults.0.thrusters": "0,1"})

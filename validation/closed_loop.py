@@ -238,8 +238,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             if spec.seconds is None and paced_from is not None:  # measured: no faster than real time
                 time.sleep(max(0.0, t - (time.perf_counter() - paced_from)))
             t0 = time.perf_counter()
-            h_sampled = plant.state()
-            u, info = ctl_obj.step(h_sampled, t)
+            u, info = ctl_obj.step(plant.state(), t)
             computed = time.perf_counter() - t0
             _check_step(resolved.name, u, info, params.n_inputs)
             paced_from = time.perf_counter() if paced_from is None else paced_from
@@ -247,9 +246,8 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             undelayed = u_prev is None or (mode in {m.value for m in Mode} and Mode(mode) not in spec.modes)
             overrun = not undelayed and spec.seconds not in (None, 0.0) and computed > spec.seconds
             if overrun and spec.strict:
-                u, period = committed.take(u_prev, h_sampled)
-                info = replace(info, dt=period, fallback=LATE, h_pred=None, u_pred=None, feedback=None, h_ref=None,
-                               contact_force=None)
+                u, period = committed.take(u_prev)
+                info = replace(info, dt=period, fallback=LATE, h_pred=None, u_pred=None, contact_force=None)
             else:
                 committed.accept(info)
             dt = max(ts, round(info.dt / ts) * ts)
@@ -298,37 +296,23 @@ LATE = "committed input (the step overran its latency)"
 
 class Committed:
     """The inputs a controller committed in advance (the module docstring's strict real time): the
-    rest of its last accepted step's plan, and that step's period. A plan with feedback
-    (StepInfo.feedback, h_ref) commits row k as u_pred[k] + feedback[k] @ (h - h_ref[k]), h the
-    state measured at the overrunning step (Euler angle differences wrapped to +-pi)."""
+    rest of its last accepted step's plan, and that step's period."""
 
     def __init__(self) -> None:
-        self.rows: list[tuple[np.ndarray, np.ndarray | None, np.ndarray | None]] = []
+        self.inputs: list[np.ndarray] = []
         self.period = 0.0
 
     def accept(self, info: StepInfo) -> None:
         """A step's answer is applied: its plan's later rows are what it commits to."""
-        self.period = float(info.dt)
-        if info.u_pred is None:
-            self.rows = []
-            return
-        u = np.asarray(info.u_pred, float)
-        K = [None] * len(u) if info.feedback is None else list(np.asarray(info.feedback, float))
-        ref = [None] * len(u) if info.h_ref is None else list(np.asarray(info.h_ref, float))
-        self.rows = list(zip(u, K, ref, strict=True))[1:]
+        plan = [] if info.u_pred is None else list(np.asarray(info.u_pred, float)[1:])
+        self.inputs, self.period = [np.asarray(row, float) for row in plan], float(info.dt)
 
-    def take(self, last: np.ndarray, h: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-        """The input to apply for an overrun at the measured state h, and for how long [s]: the plan's
-        next row, else `last`."""
-        row = self.rows.pop(0) if self.rows else (np.asarray(last, float), None, None)
-        if not self.rows:
-            self.rows = [row]
-        u, K, ref = row
-        if K is None or ref is None or h is None:
-            return u, self.period
-        dh = np.asarray(h, float) - ref
-        dh[3:6] = (dh[3:6] + np.pi) % (2.0 * np.pi) - np.pi  # the paper's layout: ZYX Euler angles at 3:6
-        return u + K @ dh, self.period
+    def take(self, last: np.ndarray) -> tuple[np.ndarray, float]:
+        """The input to apply for an overrun, and for how long [s]: the plan's next row, else `last`."""
+        u = self.inputs.pop(0) if self.inputs else np.asarray(last, float)
+        if not self.inputs:
+            self.inputs = [u]
+        return u, self.period
 
 
 def _record(t: float, period: float, delay: float, info: StepInfo, computed: float,
