@@ -212,3 +212,47 @@ def test_a_failed_solve_returns_and_reports_the_shifted_plan(params, scene) -> N
     assert info.fallback is Fallback.SHIFTED_PLAN
     np.testing.assert_array_equal(u, np.clip(first.u_pred[1], *params.input_bounds()))
     np.testing.assert_array_equal(info.u_pred, first.u_pred[1:])
+
+
+@pytest.mark.parametrize("rows", [1, 3])
+def test_failed_mode_three_solves_fall_back_on_its_last_plan_row_by_row(params, scene, rows) -> None:
+    """Mode III with the tip on the wall; its solve scripted: the first usable (a plan of distinct
+    rows), every later one failed. With `mode3_plan_rows` = r each of the first r failures returns
+    the plan's next row (rows 1..r of the first plan) and, while fewer than r have failed, the next
+    solve starts from the plan shifted once more (its inputs the first plan's from the next row
+    on); the failure after those has no plan left and goes to Mode II afresh (`redeploy`).
+    Oracle: the first plan's rows."""
+    from controller.mode3 import ModeIIISolution
+
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, wall_approach(0.15, 0.2))
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(mode3_plan_rows=rows))
+    ctl.mode, ctl._reported_mode, ctl.contact = Mode.III, Mode.III, wall
+    ocp = ctl.ocp3(wall)
+    on = h.copy()
+    on[6:6 + params.n_joints] = ocp.onto_plane(h)
+    lo, hi = params.input_bounds()
+    first = np.random.default_rng(0).uniform(lo / 2, hi / 2, (ocp.settings.horizon, len(lo)))
+    guesses: list[np.ndarray] = []
+
+    def scripted(h0, guess, current=None, duals=None):
+        hs, us, fs = ocp.unpack(guess)
+        guesses.append(us)
+        ok = len(guesses) == 1
+        return ModeIIISolution(SolverStatus.SUCCESS if ok else SolverStatus.FAILED, hs, first if ok else us, fs,
+                               0.0, 0, 0.0, np.asarray(guess), np.zeros(0), np.zeros(0))
+
+    ocp.solve = scripted
+    ocp.shifted_duals = lambda sol: (sol.lam_g, sol.lam_x)
+    u, info = ctl.step(on, 0.0)
+    np.testing.assert_array_equal(u, first[0])
+    for k in range(1, rows + 1):
+        u, info = ctl.step(on, 0.1 * k)
+        assert info.mode is Mode.III and info.fallback is Fallback.SHIFTED_PLAN
+        np.testing.assert_array_equal(u, first[k])
+        np.testing.assert_array_equal(guesses[k][: len(first) - k], first[k:])
+    _, info = ctl.step(on, 0.1 * (rows + 1))
+    assert info.mode is Mode.II
+    with pytest.raises(ValueError, match="allowed"):
+        SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(mode3_plan_rows=ocp.settings.horizon))
