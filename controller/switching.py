@@ -15,10 +15,8 @@ by Algorithm 2's inverse kinematics. A solve whose status is not usable is not u
 (StepInfo.fallback) is the previous plan of the same mode shifted by one interval, else Mode I's
 maximum braking, Mode II's deploy guess, and for Mode III's first solve Mode II afresh (`redeploy`,
 not in the paper) or, without it, maximum braking with the arm held rigid. A failed Mode III solve
-does not end Mode III: its last usable plan's next row is applied and the next step solves again
-from the measured state, starting from that plan shifted while at most `mode3_plan_rows`
-consecutive solves have failed (after that from Algorithm 2's guess, as a first solve). The rules
-not in the paper and their evidence: docs/decisions.md.
+does not end Mode III: the next step solves again from the measured state. The rules not in the
+paper and their evidence: docs/decisions.md.
 """
 
 from __future__ import annotations
@@ -77,7 +75,6 @@ class SwitchingSettings:
     deploy_deadline: bool = True  # also switch when waiting would leave Mode II no time to deploy the arm
     deadline_lead: float = 0.1  # s: the deploy deadline fires this much earlier (one Mode I period)
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh (else maximum braking, arm held)
-    mode3_plan_rows: int = 1  # consecutive failed Mode III solves its last usable plan, shifted, covers
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
     release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
@@ -132,9 +129,6 @@ class SwitchingNMPC:
         else:
             fixed = np.asarray(reference, float)
             self.reference = lambda t: fixed
-        if not 1 <= settings.mode3_plan_rows < settings.mode3.horizon:
-            raise ValueError(f"mode3_plan_rows {settings.mode3_plan_rows}; allowed: 1 to Mode III's horizon - 1 "
-                             f"({settings.mode3.horizon - 1})")
         self.current = water(settings.current)  # the model's vc: current [m/s] and extra hull weight [N]
         self.mode1 = self._hooked("mode1", ModeIOCP(model, planes, settings.mode1))
         self.feasibility = FeasibilityTest(model, planes, settings.mode1, settings.certificate)
@@ -154,7 +148,6 @@ class SwitchingNMPC:
         self.contact: int | None = None
         self._plan: OCPSolution | ModeIISolution | ModeIIISolution | None = None
         self._recomputed = np.zeros((0, model.n_states))  # the Mode III plan's states from its inputs
-        self._failed3 = 0  # consecutive failed Mode III solves since its last usable plan
         self._horizon2 = settings.mode2.horizon
         self.last_u = np.zeros(model.n_inputs)
         self._reported_mode = Mode.I
@@ -414,14 +407,11 @@ class SwitchingNMPC:
         sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
         if sol.status.usable:
-            self._plan, self._recomputed, self._failed3 = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp), 0
+            self._plan, self._recomputed = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp)
             return _ModeStep(sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
                              self._recomputed, sol.u, sol.force)
         self._plan = None
         if previous is not None:
-            self._failed3 += 1
-            if self._failed3 < self.settings.mode3_plan_rows:  # the plan, shifted, stays the plan
-                self._plan, self._recomputed = _shifted3(previous, ocp), _shifted(self._recomputed)
             return _ModeStep(previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
                              previous.h[1:], previous.u[1:], previous.force[1:])
         if self.settings.redeploy:  # a plan that keeps the links off the wall rather than a rigid arm
@@ -430,19 +420,6 @@ class SwitchingNMPC:
             return replace(out, fallback=Fallback.REDEPLOY if out.fallback is Fallback.NONE else out.fallback)
         u = self._hold(h, h[6:6 + self.model.n_joints], self.current)
         return _ModeStep(u, sol.status, Fallback.HOLD, sol.iterations, s.dt, s.horizon, h[None], u[None])
-
-
-def _shifted(rows: np.ndarray) -> np.ndarray:
-    """The rows one interval on, the last repeated (the same length)."""
-    return np.vstack([rows[1:], rows[-1:]])
-
-
-def _shifted3(plan: ModeIIISolution, ocp: ModeIIIOCP) -> ModeIIISolution:
-    """A Mode III plan one interval on: what its next failed solve falls back to and the next solve
-    starts from (states, inputs, forces and multipliers shifted, the last interval repeated)."""
-    lam_g, lam_x = ocp.shifted_duals(plan)
-    return replace(plan, h=_shifted(plan.h), u=_shifted(plan.u), force=_shifted(plan.force),
-                   w=ocp.pack(_shifted(plan.h), _shifted(plan.u), _shifted(plan.force)), lam_g=lam_g, lam_x=lam_x)
 
 
 class SwitchingController:
