@@ -69,9 +69,6 @@ class ModeIIISettings:
     hull_clearance: float = 0.05  # m: J_III also pays for the hull closer than this to the contact plane
     clearance_weight: float = 1.0  # 1/s, on that shortfall (the approach speed's weights are 1 to 2)
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
-    # 1/s: the clearance rows hold to within a slack e >= 0 per interval (shared by the rows) at this
-    # cost per metre, so that a hull already closing in still gets the least-violating plan. None: hard rows
-    slack_weight: float | None = None
     max_iter: int = 200
     tol: float = 1e-6
     acceptable_iter: int = 3  # IPOPT stops after this many iterations at its acceptable level (0: never)
@@ -84,7 +81,6 @@ class ModeIIISolution:
     h: np.ndarray  # (N+1, ns)
     u: np.ndarray  # (N, nu)
     force: np.ndarray  # (N, 3) contact force on the end-effector, obstacle frame [N]
-    slack: np.ndarray  # (N,) the clearance rows' slack [m] (0 with hard rows)
     solve_time: float
     iterations: int
     cost: float
@@ -125,8 +121,7 @@ class ModeIIIOCP:
         self.model, self.planes, self.contact, self.settings = model, tuple(planes), contact, settings
         p, s, N = model.params, settings, settings.horizon
         ns, nu, nv, n = model.n_states, model.n_inputs, model.n_speeds, model.n_joints
-        self.ns, self.nu, self.nv, self.nz = ns, nu, nv, ns + nu + nv + 4
-        self.i_force = ns + nu + nv  # F's offset in a stage's block (x_k, u_k, a_k, F_k, e_k)
+        self.ns, self.nu, self.nv, self.nz = ns, nu, nv, ns + nu + nv + 3
         plane = self.planes[contact]
         self.Rw = obstacle_frame(plane.normal)
         h, h1, u, a, F = (
@@ -136,9 +131,8 @@ class ModeIIIOCP:
             ca.SX.sym("a", nv),
             ca.SX.sym("F", 3),
         )
-        e = ca.SX.sym("e")
-        P = ca.SX.sym("P", ns + WATER + 3 + 1)  # h0, water, hull clearance, its weight, slack weight, w_i
-        vc, wi = P[ns : ns + WATER], P[ns + WATER + 3]
+        P = ca.SX.sym("P", ns + WATER + 2 + 1)  # h0, water, hull clearance and its weight, stage weight w_i
+        vc, wi = P[ns : ns + WATER], P[ns + WATER + 2]
         hm = (h + h1) / 2
         friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
@@ -147,15 +141,15 @@ class ModeIIIOCP:
             midpoint_residual(model, h, u, a, h1, s.dt, vc, ca.vertcat(F, ca.SX.zeros(3)), ca.DM(self.Rw)),
             tip_gap(model, h1, plane),
             friction,
-            self._clearance(h1) + e,
+            self._clearance(h1),
         )
-        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1]) + P[ns + WATER + 2] * e
-        st = ca.vertcat(h, u, a, F, e, h1)
+        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1])
+        st = ca.vertcat(h, u, a, F, h1)
         problem = StageProblem(
             nx=ns,
-            nv=nu + nv + 4,
+            nv=nu + nv + 3,
             horizon=N,
-            np=ns + WATER + 3,
+            np=ns + WATER + 2,
             np_stage=1,
             cost=ca.Function("cost3", [st, P], [cost]),
             constraints=ca.Function("cons3", [st, P], [cons]),
@@ -217,8 +211,7 @@ class ModeIIIOCP:
                 lbw[i + 6 : i + 6 + n], ubw[i + 6 : i + 6 + n] = self._q_lo, self._q_hi
             if k < N:
                 lbw[i + ns : i + ns + nu], ubw[i + ns : i + ns + nu] = self._lo_u, self._hi_u
-                lbw[i + self.i_force], ubw[i + self.i_force] = 0.0, self.model.params.arm.tip_force_limit  # F_n
-                lbw[i + nz - 1], ubw[i + nz - 1] = 0.0, 0.0 if self.settings.slack_weight is None else np.inf
+                lbw[i + nz - 3], ubw[i + nz - 3] = 0.0, self.model.params.arm.tip_force_limit  # F_n
         return lbw, ubw
 
     # ------------------------------------------------------------------------------------------
@@ -327,13 +320,9 @@ class ModeIIIOCP:
 
     def pack(self, hs: np.ndarray, us: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """The primal vector of states (N+1, ns), inputs (N, nu) and contact forces (N, 3), with the
-        accelerations of the midpoint rule, (nu_k+1 - nu_k) / dt, and the slacks that the clearance
-        rows at each interval's end state need (0 where they hold)."""
-        nv, dt, margin = self.nv, self.settings.dt, self.settings.distance_margin
-        slack = [max(0.0, margin - float(np.min(np.asarray(self._clearance(h))))) if self.n_clear else 0.0
-                 for h in hs[1:]]
-        blocks = [np.concatenate([hs[k], us[k], (hs[k + 1][nv:] - hs[k][nv:]) / dt, forces[k], [slack[k]]])
-                  for k in range(len(us))]
+        accelerations of the midpoint rule, (nu_k+1 - nu_k) / dt."""
+        nv, dt = self.nv, self.settings.dt
+        blocks = [np.concatenate([hs[k], us[k], (hs[k + 1][nv:] - hs[k][nv:]) / dt, forces[k]]) for k in range(len(us))]
         return np.concatenate([*blocks, hs[-1]])
 
     def shifted_duals(self, sol: ModeIIISolution) -> tuple[np.ndarray, np.ndarray]:
@@ -345,14 +334,12 @@ class ModeIIIOCP:
         return (np.concatenate([lg[:ns], lg[ns + nc:], lg[-nc:]]),
                 np.concatenate([lx[nz:], lx[-nz:-ns], lx[-ns:]]))
 
-    def unpack(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """States (N+1, ns), inputs (N, nu), contact forces (N, 3) and slacks (N,) of a primal vector."""
-        N, nz, ns, nu, f = self.settings.horizon, self.nz, self.ns, self.nu, self.i_force
+    def unpack(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        N, nz, ns, nu = self.settings.horizon, self.nz, self.ns, self.nu
         return (
             np.array([w[k * nz : k * nz + ns] for k in range(N + 1)]),
             np.array([w[k * nz + ns : k * nz + ns + nu] for k in range(N)]),
-            np.array([w[k * nz + f : k * nz + f + 3] for k in range(N)]),
-            np.array([w[(k + 1) * nz - 1] for k in range(N)]),
+            np.array([w[(k + 1) * nz - 3 : (k + 1) * nz] for k in range(N)]),
         )
 
     def solve(
@@ -368,8 +355,8 @@ class ModeIIIOCP:
         s = self.settings
         if s.force_free_gap is not None and self.away_thrust(h0) > 0.0 \
                 and float(tip_gap(self.model, h0, self.planes[self.contact])) > s.force_free_gap:
-            ubw[self.i_force] = 0.0  # F_n of the first interval (its friction rows then zero F_t)
-        P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight, s.slack_weight or 0.0],
+            ubw[self.nz - 3] = 0.0  # F_n of the first interval (its friction rows then zero F_t)
+        P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight],
                             self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
         solver = self.solver
@@ -381,13 +368,12 @@ class ModeIIIOCP:
         elapsed = time.perf_counter() - t0
         st = solver.stats()
         w = np.asarray(r["x"]).ravel()
-        hs, us, Fs, slack = self.unpack(w)
+        hs, us, Fs = self.unpack(w)
         return ModeIIISolution(
             ipopt_status(st),
             hs,
             us,
             Fs,
-            slack,
             elapsed,
             int(st["iter_count"]),
             float(r["f"]),

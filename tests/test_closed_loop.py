@@ -396,8 +396,8 @@ def test_mode_three_failed_entry_redeploys_instead_of_holding_the_arm_rigid(tmp_
     from controller.transcription import SolverStatus
 
     def failing(self, h0, guess, current=None, duals=None):
-        hs, us, fs, slack = self.unpack(guess)
-        return ModeIIISolution(SolverStatus.FAILED, hs, us, fs, slack, 0.0, 0, np.nan, np.asarray(guess),
+        hs, us, fs = self.unpack(guess)
+        return ModeIIISolution(SolverStatus.FAILED, hs, us, fs, 0.0, 0, np.nan, np.asarray(guess),
                                np.zeros(0), np.zeros(0))
 
     monkeypatch.setattr(ModeIIIOCP, "solve", failing)
