@@ -221,6 +221,26 @@ def test_the_success_plot_draws_rates_of_none_and_all(tmp_path) -> None:
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_compare_counts_rare_failures_and_their_precursors_on_the_same_runs(tmp_path, capsys) -> None:
+    """Ten thrusters-dead runs: A's hull within 5 cm in runs 0-1, B's in runs 0-9 (hull contacts in
+    runs 8-9 of B); Mode III handed back in A's run 0 and every B run. Paired near misses 0 only A
+    against 8 only B: 2 * 0.5**8 = 0.0078 (closed form); hull contacts 0 / 2: p = 0.5; hand-backs
+    0 / 9: 2 * 0.5**9 = 0.0039. An event neither has (arm-link contact) is left out."""
+    runs = [("thrusters-dead", s) for s in range(10)]
+    a = _folder(tmp_path / "A", dict.fromkeys(runs, "success"), "spin", {
+        "min_hull_distance": [0.01, 0.04] + [0.2] * 8, "hull_contact_impulse": [0.0] * 10,
+        "link_contact_impulse": [0.0] * 10, "modes": ["II > III > II"] + ["II > III"] * 9})
+    b = _folder(tmp_path / "B", {r: "success" if i < 8 else "hull contact" for i, r in enumerate(runs)}, "default", {
+        "min_hull_distance": [0.03] * 8 + [-0.001] * 2, "hull_contact_impulse": [0.0] * 8 + [4.0, 9.0],
+        "link_contact_impulse": [0.0] * 10, "modes": ["II > III > II"] * 10})
+    assert main(["compare", str(a), str(b)]) == 0
+    text = capsys.readouterr().out
+    assert "| hull within 5 cm | thrusters-dead | 2 | 10 | 0 / 8 | 0.0078 |" in text
+    assert "| hull contact | thrusters-dead | 0 | 2 | 0 / 2 | 0.5 |" in text
+    assert "| Mode III handed back to Mode II | thrusters-dead | 1 | 10 | 0 / 9 | 0.0039 |" in text
+    assert "arm-link contact" not in text
+
+
 def test_compare_reads_an_older_campaigns_fewer_columns(tmp_path, capsys) -> None:
     """A results.csv of an older campaign (no latency, timing or reason columns) is read for its
     scenario, controller, seed and verdict: 3 only A against 0 gives p = 2 * 0.5**3 = 0.25."""

@@ -13,8 +13,8 @@
                [--timeout SECONDS] [--resume]
                                                    run many, each row written as it finishes, with a
                                                    progress bar, intervals and paired tests at the end
-  uvms compare A B                                 two campaigns' folders on the same runs: rates and
-                                                   the exact McNemar test
+  uvms compare A B                                 two campaigns' folders on the same runs: rates, the
+                                                   exact McNemar test, rare failures and near misses
 """
 
 from __future__ import annotations

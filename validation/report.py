@@ -1,7 +1,8 @@
 """What a campaign's rows say: per scenario family and controller the success rate with its 95%
 Wilson interval (a markdown table and a figure), the paired counts and exact McNemar test of two
 controllers on the same runs, the sign test of their hull distances and task errors on those runs,
-and the whole-step times per mode. `uvms compare A B` reads two
+the paired counts of rare failures and their precursors (near misses, Mode III's hand-backs), and
+the whole-step times per mode. `uvms compare A B` reads two
 result folders the same way."""
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from itertools import combinations
 from pathlib import Path
 from typing import Any
 
-from validation.statistics import Paired, paired, sign_test, wilson
+from validation.statistics import Paired, mcnemar_exact, paired, sign_test, wilson
 
 MODES = ("I", "II", "III")
 SUCCESS = "success"
@@ -93,6 +94,41 @@ def _measures_text(rows: Sequence[dict[str, Any]], a: str, b: str) -> list[str]:
             "first / second / tie | p |", "|---|---|---|---|---|---|---|", *out]
 
 
+NEAR_MISS = 0.05  # m: a hull this close to a plane (or touching) counts as a near miss
+
+EVENTS = (  # (name, predicate on a row): rare failures and their more frequent precursors
+    ("hull contact", lambda r: _value(r, "hull_contact_impulse") > 0.0),
+    (f"hull within {100 * NEAR_MISS:.0f} cm", lambda r: _value(r, "min_hull_distance") < NEAR_MISS),
+    ("arm-link contact", lambda r: _value(r, "link_contact_impulse") > 0.0),
+    ("tip overload (verdict)", lambda r: r.get("verdict") == "tip overload"),
+    ("Mode III handed back to Mode II", lambda r: "III > II" in str(r.get("modes", ""))),
+)
+
+
+def _events_text(rows: Sequence[dict[str, Any]], a: str, b: str) -> list[str]:
+    """Per event and family (and all), how many runs of each controller have it, the runs where only
+    one of the two does, and the exact two-sided McNemar test of those discordant runs."""
+    out = []
+    for name, has in EVENTS:
+        for f in [*_names(rows, "scenario"), None]:
+            sel = {c: {(str(r["scenario"]), int(r["seed"])): bool(has(r)) for r in rows
+                       if r["controller"] == c and f in (None, r["scenario"])} for c in (a, b)}
+            keys = sorted(set(sel[a]) & set(sel[b]))
+            n_a, n_b = (sum(sel[c][k] for k in keys) for c in (a, b))
+            if not n_a and not n_b:
+                continue
+            only_a = sum(sel[a][k] and not sel[b][k] for k in keys)
+            only_b = sum(sel[b][k] and not sel[a][k] for k in keys)
+            out.append(f"| {name} | {f or 'all'} | {n_a} | {n_b} | {only_a} / {only_b} | "
+                       f"{mcnemar_exact(only_a, only_b):.2g} |")
+    if not out:
+        return []
+    return ["", f"Paired events, {a} against {b} on the same runs: how many runs of each have it, the runs where "
+            f"only the first / only the second does, and the exact McNemar test (a near miss: the hull's smallest "
+            f"distance under {100 * NEAR_MISS:.0f} cm, contacts included):", "",
+            "| event | scenario | first | second | only first / only second | p |", "|---|---|---|---|---|---|", *out]
+
+
 PAIRED_HEAD = ("Paired on the same runs (scenario, seed): both succeed / only the first / only the second / "
                "neither, and the exact McNemar test:")
 
@@ -119,6 +155,7 @@ def statistics_text(rows: Sequence[dict[str, Any]]) -> str:
             lines.append(_paired_line(a, b, p))
         for a, b in combinations(controllers, 2):
             lines += _measures_text(rows, a, b)
+            lines += _events_text(rows, a, b)
     return "\n".join(lines) + "\n"
 
 
