@@ -14,8 +14,9 @@ midpoint: the paper's two rows to within |v_t| / sqrt(|v_t|^2 + delta^2), and vi
 Objective (eq. Obj3): sum_i w_i relu(-d0_dot_i), w_i = 1 + (N - i)/(N - 1): the paper's J_III read
 as the hull's approach speed [m/s], relu smoothed at 1 cm/s (controller.transcription.smooth_relu;
 at 1 mm/s its curvature made the Hessian indefinite). Not in the paper: `clearance_weight` [1/s]
-times the hull's shortfall from `hull_clearance` (5 cm) to the contact plane, relu-smoothed at 1 cm
-(both parameters of the compiled problem). Regularization: 1e-5 |u|^2, 1e-6 |F|^2 and 1e-3 of the
+times the hull's shortfall from `hull_clearance` (5 cm) to the contact plane, relu-smoothed at 1 cm,
+and, while every thruster is dead, `spin_weight` [s^2/rad^2] times the hull's squared angular rates
+(all three parameters of the compiled problem). Regularization: 1e-5 |u|^2, 1e-6 |F|^2 and 1e-3 of the
 squared angular and joint rates (without it the inputs and the posture are free once the hull
 separates, and IPOPT creeps along that valley). IPOPT stops at its acceptable level (dual
 infeasibility 1e-2, constraints 1e-5) after 3 such iterations. The horizon is 5 intervals (0.5 s),
@@ -66,6 +67,11 @@ class ModeIIISettings:
     input_weight: float = 1e-5  # 1/N^2
     force_weight: float = 1e-6  # 1/N^2
     rate_weight: float = 1e-3  # s^2/rad^2, on the hull's angular and the joints' rates
+    # s^2/rad^2, on the hull's angular rates alone, while every thruster is dead: a push off a tip
+    # below the centre of mass then turns the hull with nothing else to stop it; at this weight a
+    # 1 rad/s spin costs what a 0.05-0.1 m/s approach does. With live thrusters it cost wall-oblique
+    # hull contacts, so it is 0 there (experiments/mode3_spin)
+    spin_weight: float = 0.1
     hull_clearance: float = 0.05  # m: J_III also pays for the hull closer than this to the contact plane
     clearance_weight: float = 1.0  # 1/s, on that shortfall (the approach speed's weights are 1 to 2)
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
@@ -97,11 +103,14 @@ def friction_rows(model: UVMSModel, Rw: np.ndarray, hm: ca.SX, F: ca.SX, s: Mode
 
 
 def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi: ca.SX, s: ModeIIISettings,
-               clearance: ca.SX | float | None = None, weight: ca.SX | float | None = None) -> ca.SX:
+               clearance: ca.SX | float | None = None, weight: ca.SX | float | None = None,
+               spin: ca.SX | float | None = None) -> ca.SX:
     """J_III's stage term at the interval's end state h1 (stage weight wi), the hull's shortfall from
-    `clearance` [m] weighted by `weight` [1/s] (None: the settings'), and the regularization."""
+    `clearance` [m] weighted by `weight` [1/s], the hull's squared angular rates weighted by `spin`
+    [s^2/rad^2] (None: the settings'), and the regularization."""
     clearance = s.hull_clearance if clearance is None else clearance
     weight = s.clearance_weight if weight is None else weight
+    spin = s.spin_weight if spin is None else spin
     d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
     d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
     rates = h1[model.n_speeds + 3 :]  # hull angular and joint rates
@@ -111,6 +120,7 @@ def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi
         + s.input_weight * ca.dot(u, u)
         + s.force_weight * ca.dot(F, F)
         + s.rate_weight * ca.dot(rates, rates)
+        + spin * ca.dot(rates[:3], rates[:3])
     )
 
 
@@ -131,8 +141,9 @@ class ModeIIIOCP:
             ca.SX.sym("a", nv),
             ca.SX.sym("F", 3),
         )
-        P = ca.SX.sym("P", ns + WATER + 2 + 1)  # h0, water, hull clearance and its weight, stage weight w_i
-        vc, wi = P[ns : ns + WATER], P[ns + WATER + 2]
+        # h0, water, hull clearance and its weight, the spin weight, stage weight w_i
+        P = ca.SX.sym("P", ns + WATER + 3 + 1)
+        vc, wi = P[ns : ns + WATER], P[ns + WATER + 3]
         hm = (h + h1) / 2
         friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
@@ -143,13 +154,13 @@ class ModeIIIOCP:
             friction,
             self._clearance(h1),
         )
-        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1])
+        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1], P[ns + WATER + 2])
         st = ca.vertcat(h, u, a, F, h1)
         problem = StageProblem(
             nx=ns,
             nv=nu + nv + 3,
             horizon=N,
-            np=ns + WATER + 2,
+            np=ns + WATER + 3,
             np_stage=1,
             cost=ca.Function("cost3", [st, P], [cost]),
             constraints=ca.Function("cons3", [st, P], [cons]),
@@ -258,6 +269,13 @@ class ModeIIIOCP:
             held = float(np.min(np.where(arm > 1e-9, self._tau_max / arm, np.inf))) if n else 0.0
         return min(held, self.model.params.arm.tip_force_limit)
 
+    def spin_weight(self) -> float:
+        """The hull's spin weight this solve uses [s^2/rad^2]: the settings' while every thruster is
+        dead (known-failed: bounds 0), else 0."""
+        nt = self.model.params.n_thrusters
+        dead = not np.any(self._lo_u[:nt]) and not np.any(self._hi_u[:nt])
+        return self.settings.spin_weight if dead else 0.0
+
     def away_thrust(self, h: np.ndarray) -> float:
         """The largest force [N] the thrusters, within their bounds (0 for known-failed ones), can
         put on the hull along the contact plane's normal, away from the plane, in attitude h."""
@@ -356,7 +374,7 @@ class ModeIIIOCP:
         if s.force_free_gap is not None and self.away_thrust(h0) > 0.0 \
                 and float(tip_gap(self.model, h0, self.planes[self.contact])) > s.force_free_gap:
             ubw[self.nz - 3] = 0.0  # F_n of the first interval (its friction rows then zero F_t)
-        P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight],
+        P = np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight, self.spin_weight()],
                             self.weights])
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
         solver = self.solver
