@@ -100,13 +100,13 @@ def test_plan_keeps_contact_obeys_friction_and_slows_the_hull(contact_case, para
 
 @pytest.mark.slow
 def test_spin_term_stops_the_hull_with_less_turn(contact_case, params, scene) -> None:
-    """J_III's spin term (not in the paper), the contact case (every thruster dead) with and without it
-    (weight 0.1 and 0 s^2/rad^2; with a live thruster the term is off): both plans stop the approach
-    (the hull ends moving away from the wall). With the term
-    the hull's peak angular rate is at least 10 % lower (21 % measured here; the margin is half of
-    it) and so is its pitch excursion, and the contact force's moment about the hull's origin,
-    computed here from the planned tip positions and forces (the plan has no moment in it), is
-    smaller on average: the push that turns the hull is what the term trades."""
+    """J_III's spin term (not in the paper), the contact case (every thruster dead) with and without
+    it (weight 0.1 and 0 s^2/rad^2; with a live thruster the term is off): both plans stop the
+    approach (the hull ends moving away from the wall). With the term the hull's peak angular rate
+    is at least 10 % lower (21 % measured here; the margin is half of it) and so is its pitch
+    excursion, and the contact force's moment about the hull's origin, computed here from the
+    planned tip positions and forces (the plan has no moment in it), is smaller on average: the
+    push that turns the hull is what the term trades."""
     model, ocp, h = contact_case
     assert ocp.settings.spin_weight == 0.1 and ocp.spin_weight() == 0.1
     lo, hi = params.input_bounds()
