@@ -61,6 +61,11 @@ OPTIONS: dict[str, dict] = {
     "first acceptable iterate": {"acceptable_iter": 1},
     "limit x1 and first acceptable iterate": {"theta_max_fact": 1.0, "acceptable_iter": 1},
     "converged (no acceptable-level stop)": {"acceptable_iter": 0},
+    "warm: barrier from 1e-6": {"mu_init": 1e-6},
+    "warm: barrier from 1e-3": {"mu_init": 1e-3},
+    "warm: barrier from 1e-2": {"mu_init": 1e-2},
+    "warm: bound pushes 1e-3": {"warm_start_bound_push": 1e-3, "warm_start_mult_bound_push": 1e-3},
+    "warm: primal guess only (the cold solver's options)": {"warm_start_init_point": "no", "mu_init": 1e-2},
 }
 
 
