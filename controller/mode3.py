@@ -27,12 +27,11 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import numpy as np
 
-from controller.kinematics import euler_zyx
 from controller.model import WATER, UVMSModel, water
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import (
@@ -75,6 +74,10 @@ class ModeIIISettings:
     hull_clearance: float = 0.05  # m: J_III also pays for the hull closer than this to the contact plane
     clearance_weight: float = 1.0  # 1/s, on that shortfall (the approach speed's weights are 1 to 2)
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
+    # deg: with the hull pitched more than this at h0, the problem is solved in Euler angles relative
+    # to a frame pitched +-90 deg (ModelOptions.pitch_offset), regular where the world's ZYX angles
+    # are singular; the solution comes back in the world's angles. None: always the world's
+    regular_pitch: float | None = None
     max_iter: int = 200
     tol: float = 1e-6
     acceptable_iter: int = 3  # IPOPT stops after this many iterations at its acceptable level (0: never)
@@ -129,6 +132,7 @@ class ModeIIIOCP:
         self, model: UVMSModel, planes: Sequence[Plane], contact: int, settings: ModeIIISettings = ModeIIISettings()
     ):
         self.model, self.planes, self.contact, self.settings = model, tuple(planes), contact, settings
+        self._twins: dict[float, ModeIIIOCP] = {}  # the problem in regular angles, by pitch sign (_twin)
         p, s, N = model.params, settings, settings.horizon
         ns, nu, nv, n = model.n_states, model.n_inputs, model.n_speeds, model.n_joints
         self.ns, self.nu, self.nv, self.nz = ns, nu, nv, ns + nu + nv + 3
@@ -212,6 +216,25 @@ class ModeIIIOCP:
     def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
         self._lo_u, self._hi_u = np.asarray(lo, float), np.asarray(hi, float)
+        for twin in self._twins.values():
+            twin.limit_inputs(lo, hi)
+
+    def _twin(self, sign: float) -> ModeIIIOCP:
+        """This problem with the Euler angles relative to a frame pitched sign * 90 deg (built once)."""
+        if sign not in self._twins:
+            m = self.model
+            pitched = UVMSModel(m.params, m.water, replace(m.options, pitch_offset=sign * np.pi / 2))
+            twin = ModeIIIOCP(pitched, self.planes, self.contact, replace(self.settings, regular_pitch=None))
+            twin.limit_inputs(self._lo_u, self._hi_u)
+            self._twins[sign] = twin
+        return self._twins[sign]
+
+    def _angles_to(self, w: np.ndarray, source: UVMSModel, target: UVMSModel) -> np.ndarray:
+        """A primal vector with every node's Euler angles re-expressed from source's to target's."""
+        w, nz, ns = np.array(w, float), self.nz, self.ns
+        nodes = np.concatenate([np.arange(k * nz, k * nz + ns) for k in range(self.settings.horizon + 1)])
+        w[nodes] = source.angles_to_options(w[nodes].reshape(-1, self.ns), target).ravel()
+        return w
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         N, nz, ns, nu, n = self.settings.horizon, self.nz, self.ns, self.nu, self.model.n_joints
@@ -279,7 +302,7 @@ class ModeIIIOCP:
     def away_thrust(self, h: np.ndarray) -> float:
         """The largest force [N] the thrusters, within their bounds (0 for known-failed ones), can
         put on the hull along the contact plane's normal, away from the plane, in attitude h."""
-        R = np.asarray(ca.DM(euler_zyx(*h[3:6])))
+        R = np.asarray(self.model.rotation(h))
         return self.model.params.max_thrust_along(R.T @ self.planes[self.contact].normal, self._lo_u, self._hi_u)
 
     def stopping_force(self, h: np.ndarray) -> float:
@@ -290,7 +313,7 @@ class ModeIIIOCP:
         90 N off the dynamics."""
         plane = self.planes[self.contact]
         d0_dot = float(np.asarray(self.model.closing_speeds(h, plane.normal, plane.offset)).ravel()[0])
-        R = np.asarray(ca.DM(euler_zyx(*h[3:6])))
+        R = np.asarray(self.model.rotation(h))
         n_body = R.T @ plane.normal
         m_eff = 1.0 / float(n_body @ np.linalg.inv(np.asarray(self.model.mass_matrix(h))[:6, :6])[:3, :3] @ n_body)
         return min(self.pushing_force(h), max(0.0, -d0_dot) * m_eff / self.settings.dt)
@@ -368,7 +391,15 @@ class ModeIIIOCP:
         duals: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> ModeIIISolution:
         """Solve from h0 with a primal guess; with `duals` (lam_g, lam_x, e.g. `shifted_duals`) by the
-        warm-start solver, else by the cold one (Algorithm 2's guess)."""
+        warm-start solver, else by the cold one (Algorithm 2's guess). Pitched over `regular_pitch`,
+        in the regular angles of `_twin` (h0, the guess and the solution in the world's)."""
+        limit = self.settings.regular_pitch
+        if limit is not None and abs(h0[4]) > np.radians(limit):
+            twin = self._twin(float(np.sign(h0[4])))
+            sol = twin.solve(self.model.angles_to_options(h0, twin.model),
+                             self._angles_to(guess, self.model, twin.model), current, duals)
+            w = self._angles_to(sol.w, twin.model, self.model)
+            return replace(sol, h=self.unpack(w)[0], w=w)
         lbw, ubw = self.bounds()
         s = self.settings
         if s.force_free_gap is not None and self.away_thrust(h0) > 0.0 \

@@ -57,6 +57,10 @@ class ModelOptions:
     # feasible, and on none at 1e-3 m (docs/decisions.md, 'Superellipsoids' support function smoothed')
     support_smoothing: float = 1e-3
     link_drag_points: int = 3  # Gauss-Legendre points per link for cross-flow drag
+    # rad: the state's Euler angles give the hull's attitude relative to a frame pitched by this angle
+    # about the world's y axis (R = Ry(offset) Rz Ry Rx). 0: the world's ZYX angles, singular at pitch
+    # +-90 deg; with pi/2 the angles are regular there (and singular at a level hull heading +-x)
+    pitch_offset: float = 0.0
 
 
 class ModelError(ValueError):
@@ -95,6 +99,7 @@ class UVMSModel:
         args, names = [h, u, Fw, Rw, vc, ac], ["h", "u", "Fw", "Rw", "vc", "ac"]
         self.f = ca.Function("f", args, [hdot], names, ["hdot"])
         self.mass_matrix = ca.Function("M", [h], [M], ["h"], ["M"])
+        self.rotation = ca.Function("R", [h], [kin["R"]], ["h"], ["R"])
         self.generalized_forces = ca.Function("Q", args, list(terms.values()), names, list(terms))
         self.bias = ca.Function("bias", [h, vc, ac], [-(terms["coriolis"] + terms["gravity"] + terms["buoyancy"]
                                                           + terms["added_mass"] + terms["froude_krylov"]
@@ -110,12 +115,26 @@ class UVMSModel:
         self._mass_bias: NumpyCall | None = None
 
     # ------------------------------------------------------------------------------------------
+    def attitude(self, h: ca.SX) -> ca.SX:
+        """The hull's rotation (body to world) from the state's Euler angles (ModelOptions.pitch_offset)."""
+        R = euler_zyx(h[3], h[4], h[5])
+        off = self.options.pitch_offset
+        return R if off == 0.0 else ca.DM(_rot_y(off)) @ R
+
+    def angles_to_options(self, h: np.ndarray, other: UVMSModel) -> np.ndarray:
+        """State(s) h (..., ns) of this model with the Euler angles re-expressed for `other`'s offset."""
+        h = np.array(h, float)
+        d = self.options.pitch_offset - other.options.pitch_offset
+        for x in h.reshape(-1, h.shape[-1]):
+            x[3:6] = _zyx_angles(_rot_y(d) @ _zyx_matrix(*x[3:6]))
+        return h
+
     def _kane(self, h, u, Fw, Rw, vc, ac):
         p, o, w = self.params, self.options, self.water
         n, N = self.n_joints, self.n_speeds
         qm, nu = h[6:6 + n], h[6 + n:]
         v, om, qd = nu[0:3], nu[3:6], nu[6:]
-        R = euler_zyx(h[3], h[4], h[5])
+        R = self.attitude(h)
         g_B = R.T @ ca.DM([0.0, 0.0, -w.gravity])
         vc_B, ac_B = R.T @ vc[:3], R.T @ ac
         fr = link_frames(p, qm)
@@ -315,6 +334,21 @@ class UVMSModel:
             self._held[substeps] = NumpyCall(compiled([held], name)[held.name()])
         Fw, Rw, vc, ac = self.defaults(Fw, Rw, vc, None)
         return self._held[substeps](h, u, Fw, np.asarray(Rw, float).T, vc, ac, np.array([dt], float))[0].copy()
+
+
+def _rot_y(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _zyx_matrix(phi: float, theta: float, psi: float) -> np.ndarray:
+    return np.asarray(ca.DM(euler_zyx(phi, theta, psi)))
+
+
+def _zyx_angles(R: np.ndarray) -> np.ndarray:
+    """(phi, theta, psi) with R = Rz(psi) Ry(theta) Rx(phi), theta in [-pi/2, pi/2]."""
+    theta = -np.arcsin(np.clip(R[2, 0], -1.0, 1.0))
+    return np.array([np.arctan2(R[2, 1], R[2, 2]), theta, np.arctan2(R[1, 0], R[0, 0])])
 
 
 def water(current=None, extra_weight: float = 0.0) -> np.ndarray:

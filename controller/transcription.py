@@ -14,7 +14,7 @@ from enum import Enum
 import casadi as ca
 import numpy as np
 
-from controller.kinematics import euler_rates, euler_zyx
+from controller.kinematics import euler_rates
 from controller.model import UVMSModel
 from uvms.scene import Plane
 
@@ -67,7 +67,7 @@ def midpoint_residual(model: UVMSModel, h: ca.SX, u: ca.SX, a: ca.SX, h1: ca.SX,
     Fw = ca.SX.zeros(6) if Fw is None else Fw
     Rw = ca.DM.eye(3) if Rw is None else Rw
     Q = sum(model.generalized_forces(hm, u, Fw, Rw, vc, ca.DM.zeros(3)))
-    R = euler_zyx(hm[3], hm[4], hm[5])
+    R = model.attitude(hm)
     eta_dot = ca.vertcat(R @ hm[6 + n:9 + n], euler_rates(hm[3:6], hm[9 + n:12 + n]), hm[12 + n:])
     return ca.vertcat(h1[:nv] - h[:nv] - dt * eta_dot, h1[nv:] - h[nv:] - dt * a, model.mass_matrix(hm) @ a - Q)
 
