@@ -3,6 +3,8 @@ and MuJoCo (tests/oracles), with buoyancy, fluid and added mass off on all sides
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from helpers import random_states
@@ -78,3 +80,35 @@ def test_held_steps_are_the_steps_in_one_call(scene) -> None:
         for _ in range(4):
             x = model.step(x, u, 0.1 / 4, Fw=Fw, Rw=Rw, vc=vc)
         assert np.array_equal(model.held_steps(h, u, 0.1, 4, Fw=Fw, Rw=Rw, vc=vc), x)
+
+
+def test_pitched_attitude_angles_are_the_same_physics_and_regular_at_90_deg(scene) -> None:
+    """ModelOptions.pitch_offset = pi/2 (Mode III's angles past `regular_pitch`): (1) on 30 random
+    states, re-expressed in its angles, M and the bias equal Pinocchio's for the world's angles to
+    1e-8 relative (as the world model's, above); (2) at 89.99 deg of pitch its Euler-angle rates move
+    the attitude as the body rates do, R(h + e hdot) = R(h)(I + e [w]x) + O(e^2) (closed form,
+    e = 1e-6, so 1e-9 bounds the second-order rest), while the world's angles, their rate map held
+    at |cos(pitch)| >= 1e-3 there, miss by over 1e-7."""
+    p = load_params()
+    world, pitched = UVMSModel(p, scene.water, RIGID), UVMSModel(p, scene.water, replace(RIGID, pitch_offset=np.pi / 2))
+    oracle = PinocchioOracle(p, scene.water.gravity)
+    for h in random_states(p, 30, seed=7):
+        hp = world.angles_to_options(h, pitched)
+        np.testing.assert_allclose(np.asarray(pitched.rotation(hp)), np.asarray(world.rotation(h)), atol=1e-12)
+        M, M_ref = np.asarray(pitched.mass_matrix(hp)), oracle.mass_matrix(h)
+        b, b_ref = np.asarray(pitched.bias(hp, water(), np.zeros(3))).ravel(), oracle.bias(h)
+        assert np.linalg.norm(M - M_ref) <= 1e-8 * np.linalg.norm(M_ref)
+        assert np.linalg.norm(b - b_ref) <= 1e-8 * np.linalg.norm(b_ref)
+    n, e = p.n_joints, 1e-6
+    h = random_states(p, 1, seed=8)[0]
+    h[4] = np.radians(89.99)
+    u = np.zeros(p.n_inputs)
+
+    def miss(model: UVMSModel, x: np.ndarray) -> float:
+        w = x[9 + n:12 + n]
+        skew = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+        R = np.asarray(model.rotation(x))
+        return float(np.abs(np.asarray(model.rotation(x + e * model.hdot(x, u))) - R @ (np.eye(3) + e * skew)).max())
+
+    assert miss(pitched, world.angles_to_options(h, pitched)) < 1e-9
+    assert miss(world, h) > 1e-7
