@@ -3,6 +3,8 @@ contact, the friction law and its effect on the hull against a coasting rollout 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -233,3 +235,23 @@ def test_projection_onto_the_wall_matches_ipopt(contact_case, scene) -> None:
         assert abs(float(tip_gap(model, y, wall))) < 1e-9
         assert np.all((q >= ocp._q_lo) & (q <= ocp._q_hi))
         assert np.linalg.norm(q - x[6:6 + n]) <= np.linalg.norm(q_ipopt - x[6:6 + n]) + 1e-8
+
+
+def test_regular_angles_solve_a_hull_pitched_89_deg_in_the_worlds_terms(params, scene) -> None:
+    """A Mode III problem recorded in a thrusters-dead closed loop with the hull pitched 88.9 deg
+    (tests/data), solved with `regular_pitch` = 75 deg, i.e. in angles relative to a 90 deg-pitched
+    frame: the plan comes back in the world's angles, judged by the world's model (an independent
+    reading of every node's attitude): it starts at the measured state (1e-9), keeps the tip on the
+    wall (the problem's constraint tolerance, 1e-5 m) and every other body at least the margin off
+    (less 1e-5 m)."""
+    d = np.load(Path(__file__).parent / "data" / "thrusters_dead_mode3_pitched.npz")
+    model = UVMSModel(params, scene.water)
+    contact = int(d["contact"])
+    ocp = ModeIIIOCP(model, scene.planes, contact, ModeIIISettings(regular_pitch=75.0))
+    ocp.limit_inputs(d["lo"], d["hi"])
+    sol = ocp.solve(d["h0"], d["guess"], d["current"], (d["lam_g"], d["lam_x"]))
+    assert sol.status.usable
+    np.testing.assert_allclose(sol.h[0], d["h0"], atol=1e-9)
+    plane = scene.planes[contact]
+    assert max(abs(float(tip_gap(model, x, plane))) for x in sol.h[1:]) <= 1e-5
+    assert min(float(np.min(np.asarray(ocp._clearance(x)))) for x in sol.h[1:]) >= ocp.settings.distance_margin - 1e-5
