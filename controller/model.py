@@ -28,9 +28,8 @@ import casadi as ca
 import numpy as np
 
 from controller.codegen import NumpyCall, compiled
-from controller.kinematics import euler_rates, euler_zyx, link_frames, rot_axis, skew
+from controller.kinematics import euler_rates, euler_zyx, link_frames, skew
 from controller.superellipsoid import closing_speed, plane_distance, superellipsoid_mesh
-from uvms.conventions import euler_zyx_to_matrix, matrix_to_euler_zyx
 from uvms.params import UVMSParams
 from uvms.scene import Water
 
@@ -39,9 +38,6 @@ LINK_TO_SUPERELLIPSOID = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 
 WATER = 4  # entries of the model's `vc` input: the current (3, world, m/s), the hull's extra weight in water (N)
 TERMS = ("coriolis", "gravity", "buoyancy", "added_mass", "froude_krylov", "drag", "thrust", "joint_torque",
          "contact")
-
-
-_Y = np.array([0.0, 1.0, 0.0])  # the world's y axis (ModelOptions.pitch_offset)
 
 
 @dataclass(frozen=True)
@@ -123,14 +119,14 @@ class UVMSModel:
         """The hull's rotation (body to world) from the state's Euler angles (ModelOptions.pitch_offset)."""
         R = euler_zyx(h[3], h[4], h[5])
         off = self.options.pitch_offset
-        return R if off == 0.0 else rot_axis(_Y, off) @ R
+        return R if off == 0.0 else ca.DM(_rot_y(off)) @ R
 
     def angles_to_options(self, h: np.ndarray, other: UVMSModel) -> np.ndarray:
         """State(s) h (..., ns) of this model with the Euler angles re-expressed for `other`'s offset."""
         h = np.array(h, float)
         d = self.options.pitch_offset - other.options.pitch_offset
         for x in h.reshape(-1, h.shape[-1]):
-            x[3:6] = matrix_to_euler_zyx(np.asarray(rot_axis(_Y, d)) @ euler_zyx_to_matrix(*x[3:6]))
+            x[3:6] = _zyx_angles(_rot_y(d) @ _zyx_matrix(*x[3:6]))
         return h
 
     def _kane(self, h, u, Fw, Rw, vc, ac):
@@ -338,6 +334,21 @@ class UVMSModel:
             self._held[substeps] = NumpyCall(compiled([held], name)[held.name()])
         Fw, Rw, vc, ac = self.defaults(Fw, Rw, vc, None)
         return self._held[substeps](h, u, Fw, np.asarray(Rw, float).T, vc, ac, np.array([dt], float))[0].copy()
+
+
+def _rot_y(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _zyx_matrix(phi: float, theta: float, psi: float) -> np.ndarray:
+    return np.asarray(ca.DM(euler_zyx(phi, theta, psi)))
+
+
+def _zyx_angles(R: np.ndarray) -> np.ndarray:
+    """(phi, theta, psi) with R = Rz(psi) Ry(theta) Rx(phi), theta in [-pi/2, pi/2]."""
+    theta = -np.arcsin(np.clip(R[2, 0], -1.0, 1.0))
+    return np.array([np.arctan2(R[2, 1], R[2, 2]), theta, np.arctan2(R[1, 0], R[0, 0])])
 
 
 def water(current=None, extra_weight: float = 0.0) -> np.ndarray:
