@@ -76,10 +76,10 @@ class ModeIIISettings:
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
     # deg: with the hull pitched more than this at h0, the problem is solved in Euler angles relative
     # to a frame pitched +-90 deg (ModelOptions.pitch_offset), regular where the world's ZYX angles
-    # are singular; the solution comes back in the world's angles. None: always the world's. At 75,
-    # thrusters-dead's Mode III took fewer iterations (p95 100 vs 114) with 4 vs 3 hull contacts in 157
-    # runs: off until safety is decided (experiments/mode3_regular_pitch)
-    regular_pitch: float | None = None
+    # are singular; the solution comes back in the world's angles. None: always the world's. Past 75
+    # deg thrusters-dead's Mode III takes fewer iterations (p95 100 vs 114, fallback steps 50 vs 84),
+    # no more hull contacts in 457 runs (8 vs 11), the wall families unchanged (experiments/mode3_regular_pitch)
+    regular_pitch: float | None = 75.0
     max_iter: int = 200
     tol: float = 1e-6
     acceptable_iter: int = 3  # IPOPT stops after this many iterations at its acceptable level (0: never)
