@@ -235,7 +235,7 @@ class ModeIIIOCP:
         """A primal vector with every node's Euler angles re-expressed from source's to target's."""
         w, nz, ns = np.array(w, float), self.nz, self.ns
         nodes = np.concatenate([np.arange(k * nz, k * nz + ns) for k in range(self.settings.horizon + 1)])
-        w[nodes] = source.angles_to_options(w[nodes].reshape(-1, self.ns), target).ravel()
+        w[nodes] = source.angles_to_options(w[nodes].reshape(-1, ns), target).ravel()
         return w
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
