@@ -19,7 +19,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
 from mode3_solvers import load_problems
 
 from controller.mode3 import ModeIIIOCP, ModeIIISettings
-from controller.model import water
 
 HERE = Path(__file__).parent
 
@@ -34,9 +33,7 @@ def main() -> None:
         o.limit_inputs(data["lo"][i], data["hi"][i])
         duals, current = (data["lam_g"][i], data["lam_x"][i]), data["current"][i]
         a = o.solve(data["h0"][i], data["guess"][i], current, duals)
-        s = o.settings
-        P = np.concatenate([data["h0"][i], water(current), [s.hull_clearance, s.clearance_weight, o.spin_weight()],
-                            o.weights])
+        P = o.parameters(data["h0"][i], current)
         gv = np.asarray(g(np.clip(data["guess"][i], *o.bounds()), P)).ravel()
         v = np.maximum(o.lbg - gv, 0) + np.maximum(gv - o.ubg, 0)
         viol.append((v.max(), v[o.ns:o.ns + nc].max(), v[o.ns + nc:].max()))
