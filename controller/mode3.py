@@ -71,13 +71,6 @@ class ModeIIISettings:
     # 1 rad/s spin costs what a 0.05-0.1 m/s approach does. With live thrusters it cost wall-oblique
     # hull contacts, so it is 0 there (experiments/mode3_spin)
     spin_weight: float = 0.1
-    # s/m, on the hull's squared velocity along the contact plane, while a thruster lives: the
-    # paper's words ask for "the minimization of the relative velocity between the AUV body and the
-    # obstacle", its eq. Obj3 prices only the normal part, and a hull heavier than its model then
-    # sinks along the wall unopposed. At 1 a 0.1 m/s drift costs what a 0.005-0.01 m/s approach does
-    drift_weight: float = 0.0
-    # m/s, on the hull's tilt, 1 - cos(angle of its z axis from the vertical), while a thruster lives
-    tilt_weight: float = 0.0
     hull_clearance: float = 0.05  # m: J_III also pays for the hull closer than this to the contact plane
     clearance_weight: float = 1.0  # 1/s, on that shortfall (the approach speed's weights are 1 to 2)
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
@@ -116,25 +109,16 @@ def friction_rows(model: UVMSModel, Rw: np.ndarray, hm: ca.SX, F: ca.SX, s: Mode
 
 def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi: ca.SX, s: ModeIIISettings,
                clearance: ca.SX | float | None = None, weight: ca.SX | float | None = None,
-               spin: ca.SX | float | None = None, drift: ca.SX | float | None = None,
-               tilt: ca.SX | float | None = None) -> ca.SX:
+               spin: ca.SX | float | None = None) -> ca.SX:
     """J_III's stage term at the interval's end state h1 (stage weight wi), the hull's shortfall from
     `clearance` [m] weighted by `weight` [1/s], the hull's squared angular rates weighted by `spin`
-    [s^2/rad^2], its squared velocity along the plane weighted by `drift` [s/m], its tilt weighted by
-    `tilt` [m/s] (None: the settings'), and the regularization."""
+    [s^2/rad^2] (None: the settings'), and the regularization."""
     clearance = s.hull_clearance if clearance is None else clearance
     weight = s.clearance_weight if weight is None else weight
     spin = s.spin_weight if spin is None else spin
-    drift = s.drift_weight if drift is None else drift
-    tilt = s.tilt_weight if tilt is None else tilt
-    n = ca.DM(plane.normal)
-    d0_dot = model.closing_speeds(h1, n, plane.offset)[0]
-    d0 = model.distances(h1, n, plane.offset)[0]
-    nv = model.n_speeds
-    R = model.attitude(h1)
-    v = R @ h1[nv : nv + 3]  # hull origin's velocity, world [m/s]
-    v_along = v - n * ca.dot(n, v)
-    rates = h1[nv + 3 :]  # hull angular and joint rates
+    d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
+    d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
+    rates = h1[model.n_speeds + 3 :]  # hull angular and joint rates
     return (
         wi * smooth_relu(-d0_dot, s.approach_smoothing)
         + weight * smooth_relu(clearance - d0, s.clearance_smoothing)
@@ -142,8 +126,6 @@ def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi
         + s.force_weight * ca.dot(F, F)
         + s.rate_weight * ca.dot(rates, rates)
         + spin * ca.dot(rates[:3], rates[:3])
-        + drift * ca.dot(v_along, v_along)
-        + tilt * (1 - R[2, 2])
     )
 
 
@@ -165,9 +147,9 @@ class ModeIIIOCP:
             ca.SX.sym("a", nv),
             ca.SX.sym("F", 3),
         )
-        # h0, water, hull clearance and its weight, the spin, drift and tilt weights, stage weight w_i
-        P = ca.SX.sym("P", ns + WATER + 5 + 1)
-        vc, wi = P[ns : ns + WATER], P[ns + WATER + 5]
+        # h0, water, hull clearance and its weight, the spin weight, stage weight w_i
+        P = ca.SX.sym("P", ns + WATER + 3 + 1)
+        vc, wi = P[ns : ns + WATER], P[ns + WATER + 3]
         hm = (h + h1) / 2
         friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
@@ -178,13 +160,13 @@ class ModeIIIOCP:
             friction,
             self._clearance(h1),
         )
-        cost = stage_cost(model, plane, h1, u, F, wi, s, *(P[ns + WATER + i] for i in range(5)))
+        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1], P[ns + WATER + 2])
         st = ca.vertcat(h, u, a, F, h1)
         problem = StageProblem(
             nx=ns,
             nv=nu + nv + 3,
             horizon=N,
-            np=ns + WATER + 5,
+            np=ns + WATER + 3,
             np_stage=1,
             cost=ca.Function("cost3", [st, P], [cost]),
             constraints=ca.Function("cons3", [st, P], [cons]),
@@ -312,23 +294,18 @@ class ModeIIIOCP:
             held = float(np.min(np.where(arm > 1e-9, self._tau_max / arm, np.inf))) if n else 0.0
         return min(held, self.model.params.arm.tip_force_limit)
 
-    def _thrusters_dead(self) -> bool:
-        """Every thruster known-failed (bounds 0)."""
-        nt = self.model.params.n_thrusters
-        return not np.any(self._lo_u[:nt]) and not np.any(self._hi_u[:nt])
-
     def spin_weight(self) -> float:
         """The hull's spin weight this solve uses [s^2/rad^2]: the settings' while every thruster is
-        dead, else 0."""
-        return self.settings.spin_weight if self._thrusters_dead() else 0.0
+        dead (known-failed: bounds 0), else 0."""
+        nt = self.model.params.n_thrusters
+        dead = not np.any(self._lo_u[:nt]) and not np.any(self._hi_u[:nt])
+        return self.settings.spin_weight if dead else 0.0
 
     def parameters(self, h0: np.ndarray, current: np.ndarray | None = None) -> np.ndarray:
         """The compiled problem's parameter vector for a solve from h0 in `current` [m/s, world]."""
         s = self.settings
-        live = 0.0 if self._thrusters_dead() else 1.0  # drift and tilt: thrust holds them, the arm cannot
-        weights = [s.hull_clearance, s.clearance_weight, self.spin_weight(), live * s.drift_weight,
-                   live * s.tilt_weight]
-        return np.concatenate([h0, water(current), weights, self.weights])
+        return np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight, self.spin_weight()],
+                               self.weights])
 
     def away_thrust(self, h: np.ndarray) -> float:
         """The largest force [N] the thrusters, within their bounds (0 for known-failed ones), can

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.model import ModelOptions, UVMSModel, water
+from controller.model import ModelOptions, UVMSModel
 from controller.switching import Fallback, Mode, StepInfo, SwitchingNMPC, SwitchingSettings
 from uvms import load_params
 from validation import presets
@@ -41,7 +41,6 @@ class Run:
     scenario: Scenario
     infos: list[StepInfo] = field(repr=False)
     times: np.ndarray  # s, start of each step
-    states: np.ndarray  # (steps, ns) the plant's state at the start of each step
     hull_distance: np.ndarray  # m, smallest hull-to-wall distance during each step
     tip_force_peak: np.ndarray  # N, per step
     tip_force: np.ndarray  # (steps, 3) N, world, mean per step
@@ -54,11 +53,10 @@ class Run:
         return [m for k, m in enumerate(seq) if k == 0 or seq[k - 1] is not m]
 
 
-def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: ModelOptions | None = None,
-        extra_weight: float = 0.0) -> Run:
+def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: ModelOptions | None = None) -> Run:
     """The scenario in closed loop on the model (planning on `options`'s model, simulated on it too):
     its scene's planes, its constant current, its dead thrusters (known to the controller at their
-    time, or not), the plant's hull `extra_weight` [N] heavier in water than the controller's."""
+    time, or not)."""
     if len(scenario.current.times) != 1 or any(f.mode != "dead" for f in scenario.faults):
         raise ValueError(f"scenario {scenario.name!r}: allowed on the Kane model: a constant current and dead "
                          "thrusters")
@@ -70,8 +68,8 @@ def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: 
     h, ref = initial_state(params, scenario)
     walls = [i for i, pl in enumerate(scene.planes) if pl.name == "wall"]
     ctl = SwitchingNMPC(model, scene.planes, ref, settings)
-    plant = ModelPlant(model, scene.planes, h, current=water(current, extra_weight))
-    infos, times, states, dist, peak, force, vel = [], [], [], [], [], [], []
+    plant = ModelPlant(model, scene.planes, h, current=np.asarray(current))
+    infos, times, dist, peak, force, vel = [], [], [], [], [], []
     t = 0.0
     told = None
     while t < scenario.duration - 1e-9:
@@ -81,7 +79,6 @@ def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: 
         dead = [i for f in scenario.faults if t >= f.at - 1e-9 for i in f.thrusters]
         if dead != plant.failed:
             plant.failed = dead
-        states.append(plant.h.copy())
         u, info = ctl.step(plant.h, t)
         report = plant.step(u, info.dt)
         infos.append(info)
@@ -91,8 +88,7 @@ def run(scenario: Scenario, settings: SwitchingSettings | None = None, options: 
         force.append(report.tip_force_mean)
         vel.append(report.tip_velocity)
         t += info.dt
-    return Run(scenario, infos, np.array(times), np.array(states), np.array(dist), np.array(peak), np.array(force),
-               np.array(vel))
+    return Run(scenario, infos, np.array(times), np.array(dist), np.array(peak), np.array(force), np.array(vel))
 
 
 def summary_row(r: Run) -> str:
