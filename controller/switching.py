@@ -430,8 +430,9 @@ class SwitchingController:
     model's hull weight its own plus the estimated extra weight, updated from each pair of measured
     states in any mode while every body but the last link is at least `contact_clearance` off every
     plane at both (a body's contact force would read as a current or a weight), and held otherwise.
-    A tip or last link within that clearance at either state holds it too, unless
-    ObserverSettings.through_contact makes the tip's force three more unknowns of that update.
+    A tip or last link within that clearance at both states holds it too, unless
+    ObserverSettings.through_contact makes the tip's force three more unknowns of that update (the
+    current then held); within it at only one of them (an impact) always holds it.
     Under a latency it is never updated (it assumes one input over each interval).
 
     With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
@@ -486,8 +487,9 @@ class SwitchingController:
         clear = self._clear(h) if self.observer is not None else (False, False)
         if self.observer is not None:
             last = self._last
-            if (last is not None and last[3][0] and clear[0] and t > last[2] and self.latency == 0.0):
-                touching = None if last[3][1] and clear[1] else self._tip_lever(h)
+            if (last is not None and last[3][0] and clear[0] and last[3][1] == clear[1] and t > last[2]
+                    and self.latency == 0.0):
+                touching = None if clear[1] else self._tip_lever(h)
                 self.observer.update(last[0], last[1], t - last[2], np.asarray(h, float), known, touching)
             known = known + self.observer.estimate
         self.nmpc.current = known

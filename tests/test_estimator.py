@@ -80,19 +80,19 @@ HEAVY_TOLERANCE = NO_WEIGHT_TOLERANCE  # N
 # the observer's own error against the oracle (ORACLE_TOLERANCE).
 DRAG_GAP_BOUND = 0.035  # m/s, |oracle - injected| at this state; measured 0.028 m/s
 INJECTED_TOLERANCE = DRAG_GAP_BOUND + ORACLE_TOLERANCE  # m/s
-# Through contact on the Kane model, pushes of 5-25 N on the tip (module docstring of the test): measured
-# within 3.4e-5 m/s and 2.4e-4 N of the truth over the last 3 s, inside the lag bounds above; each update's
+# Through contact on the Kane model, pushes of 5-25 N on the tip (the test's docstring): each update's
 # fitted force within 3e-3 N of the push (the convergence stop, CONVERGED = 1e-3 N of step, plus the
-# 4-versus-50-step RK4 difference). 0.01 N leaves a factor 3.
+# 4-versus-50-step RK4 difference); 0.01 N leaves a factor 3. The weight after DURATION: the lag bound
+# above (touching updates take the lag's gain only, so 10 time constants from the start).
 FORCE_TOLERANCE = 0.01  # N
 # Through contact in MuJoCo (thrusters-dead, mass*1.1, the tip on the wall from about 0.75 s): the
-# oracle is MuJoCo's equivalent disturbance given its own tip wrench (Plant.ee_wrench). Over 2-3 s its
-# mean is 9.40 N and 0.067 m/s (not the injected 14.1 N: with the hull held against the scene's current
-# the fluid models differ), the estimate's 9.56 N and 0.060 m/s. The estimate lags the oracle by the
-# filter's 0.5 s while the oracle drifts about 0.2 N/s, and the oracle's own spread is 0.4 N (sd of its
-# 10 samples); 0.5 N and 0.015 m/s leave a factor 2 to 3.
-CONTACT_ORACLE_WEIGHT_TOLERANCE = 0.5  # N
-CONTACT_ORACLE_CURRENT_TOLERANCE = 0.015  # m/s
+# oracle is the weight at which the model, given MuJoCo's own tip wrench (Plant.ee_wrench) and the
+# observer's current (held in contact), has MuJoCo's hull linear acceleration (least squares). Over
+# CONTACT_WINDOW its mean is 10.66 N, the estimate's 9.87 N (not the injected 14.1 N: with the hull held
+# against the scene's current the fluid models differ); over the next second 9.39 and 9.41 N. The
+# oracle's own spread is 0.9 N (sd of its 10 samples) and the estimate lags it by the filter's 0.5 s;
+# 1.5 N is about twice the largest gap and under the tip's vertical force (5-6 N) that a leak would add.
+CONTACT_ORACLE_WEIGHT_TOLERANCE = 1.5  # N
 CONTACT_WINDOW = (2.0, 3.0)  # s, the window of the MuJoCo comparison
 # Convergence: within INJECTED_TOLERANCE of the injected current for good after one time constant
 # (measured: from 0.3 s on; the growing memory takes the first targets nearly whole).
@@ -135,19 +135,15 @@ class Run:
 
 
 def equivalent_water(model: UVMSModel, h: np.ndarray, u: np.ndarray, acceleration: np.ndarray,
-                     guess: np.ndarray, tip_wrench: np.ndarray | None = None,
-                     known: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+                     guess: np.ndarray) -> tuple[np.ndarray, float]:
     """The horizontal current [m/s, world] and extra hull weight [N] at which the model's hull linear
-    acceleration (body frame) in state h under u, with `tip_wrench` at the end-effector [N, N m,
-    world] and the `known` water (model.water values) besides, equals `acceleration` [m/s^2], by
-    Newton's method from `guess` (model.water values), as model.water values; and the final
-    residual [m/s^2]."""
+    acceleration (body frame) in state h under u equals `acceleration` [m/s^2], by Newton's method
+    from `guess` (model.water values), as model.water values; and the final residual [m/s^2]."""
     n, eps = model.n_joints, np.array([1e-5, 1e-5, 1e-3])
     theta = np.asarray(guess, float)[[0, 1, 3]].copy()
-    base = water() if known is None else np.asarray(known, float)
 
     def accel(t: np.ndarray) -> np.ndarray:
-        return model.hdot(h, u, Fw=tip_wrench, vc=base + water([t[0], t[1], 0.0], t[2]))[6 + n:9 + n]
+        return model.hdot(h, u, vc=water([t[0], t[1], 0.0], t[2]))[6 + n:9 + n]
 
     for _ in range(10):
         r = accel(theta) - acceleration
@@ -274,13 +270,13 @@ def test_on_the_model_in_its_linear_regime_the_filter_takes_the_first_target_the
                                                          ((INJECTED, 0.08), -10.0, 2)])
 def test_through_contact_on_the_model_itself_the_tip_force_does_not_leak(model: UVMSModel, current: tuple,
                                                                           weight: float, seed: int) -> None:
-    """The Kane model as the plant (2 ms RK4 steps) in a horizontal current, its hull `weight` [N]
-    heavier in water, station keeping yawed YAW, while a wall pushes the tip at its contact point:
-    5-25 N along the wall's normal (world -x) and friction up to 0.3 of that along the wall, drawn
-    afresh each period. The observer (`through_contact`) is told where the contact point is and
-    nothing of the push: after DURATION the estimate equals the current and the weight within
-    LAG_TOLERANCE and WEIGHT_LAG_TOLERANCE, and every update from the sixth on fits the period's
-    push within FORCE_TOLERANCE."""
+    """The Kane model as the plant (2 ms RK4 steps) in a horizontal current that the observer is told,
+    its hull `weight` [N] heavier in water, station keeping yawed YAW, while a wall pushes the tip at
+    its contact point: 5-25 N along the wall's normal (world -x) and friction up to 0.3 of that along
+    the wall, drawn afresh each period. The observer (`through_contact`) is told where the contact
+    point is and nothing of the push: after DURATION the weight is within WEIGHT_LAG_TOLERANCE, the
+    current stays exactly as told (held in contact), and every update from the sixth on fits the
+    period's push within FORCE_TOLERANCE."""
     p, rng = model.params, np.random.default_rng(seed)
     c, normal = np.array([*current, 0.0]), np.array([-1.0, 0.0, 0.0])
     lever = -p.arm.tip_radius * normal  # the contact point from the tip sphere's centre
@@ -294,21 +290,21 @@ def test_through_contact_on_the_model_itself_the_tip_force_does_not_leak(model: 
         x = h.copy()
         for _ in range(50):
             x = model.step(x, u, DT / 50, Fw=np.concatenate([f, np.cross(lever, f)]), vc=water(c, weight))
-        observer.update(h, u, DT, x, np.zeros(3), tip_lever=lever)
+        observer.update(h, u, DT, x, c, tip_lever=lever)
         force_errors.append(np.max(np.abs(observer._force * WEIGHT_UNIT - f)))
         h = x
-    np.testing.assert_allclose(observer.estimate[:3], c, rtol=0, atol=LAG_TOLERANCE)
     assert abs(observer.estimate[3] - weight) < WEIGHT_LAG_TOLERANCE
+    np.testing.assert_array_equal(observer.estimate[:3], 0.0)
     assert max(force_errors[5:]) < FORCE_TOLERANCE
 
 
 @pytest.mark.slow
 def test_through_contact_in_mujoco_the_estimate_is_mujocos_equivalent_disturbance(params: UVMSParams) -> None:
     """thrusters-dead with the hull 10 % heavier (`mass*1.1`), 3 s, the observer `through_contact`:
-    while only the tip touches, its estimate's mean over CONTACT_WINDOW equals the mean of the
-    oracle's (the current and weight at which the model, given MuJoCo's own tip wrench, has MuJoCo's
-    hull acceleration) within CONTACT_ORACLE_WEIGHT_TOLERANCE and CONTACT_ORACLE_CURRENT_TOLERANCE:
-    the tip's force does not leak into the weight or the current."""
+    while only the tip touches, its weight's mean over CONTACT_WINDOW equals the mean of the oracle's
+    (the weight at which the model, given MuJoCo's own tip wrench and the observer's current, has
+    MuJoCo's hull acceleration) within CONTACT_ORACLE_WEIGHT_TOLERANCE: the tip's force does not leak
+    into the weight."""
     from controller.switching import SwitchingController, SwitchingSettings
     from validation.closed_loop import run
 
@@ -330,11 +326,19 @@ def test_through_contact_in_mujoco_the_estimate_is_mujocos_equivalent_disturbanc
             u, info = super().step(h, t)
             bodies_clear, tip_clear = self._last[3]
             if bodies_clear and not tip_clear and "u" in seen:
-                plant, applied = seen["plant"], seen["u"]
-                oracle, _ = equivalent_water(self.nmpc.model, h, applied, plant.acceleration(applied)[:3],
-                                             self.observer.estimate, plant.ee_wrench(),
-                                             water(self._task.scene.current.at(t)))
-                rows.append((t, *self.observer.estimate[[0, 1, 3]], *oracle[[0, 1, 3]]))
+                plant, applied, est = seen["plant"], seen["u"], self.observer.estimate
+                model, n = self.nmpc.model, self.nmpc.model.n_joints
+                base = water(self._task.scene.current.at(t)) + water(est[:3])
+                wrench, target = plant.ee_wrench(), plant.acceleration(applied)[:3]
+
+                def accel(weight: float) -> np.ndarray:
+                    return model.hdot(h, applied, Fw=wrench, vc=base + water(None, weight))[6 + n:9 + n]
+
+                weight = float(est[3])
+                for _ in range(5):  # Gauss-Newton on one unknown: the acceleration is affine in it
+                    slope = (accel(weight + 1e-3) - accel(weight - 1e-3)) / 2e-3
+                    weight -= float(slope @ (accel(weight) - target) / (slope @ slope))
+                rows.append((t, est[3], weight))
             return u, info
 
     settings = SwitchingSettings(observer=ObserverSettings(through_contact=True))
@@ -343,9 +347,7 @@ def test_through_contact_in_mujoco_the_estimate_is_mujocos_equivalent_disturbanc
     r = np.array(rows)
     window = r[(r[:, 0] > CONTACT_WINDOW[0]) & (r[:, 0] <= CONTACT_WINDOW[1])]
     assert len(window) >= 9  # the tip on the wall throughout the window
-    est, oracle = window[:, 1:4].mean(axis=0), window[:, 4:7].mean(axis=0)
-    np.testing.assert_allclose(est[:2], oracle[:2], rtol=0, atol=CONTACT_ORACLE_CURRENT_TOLERANCE)
-    assert abs(est[2] - oracle[2]) < CONTACT_ORACLE_WEIGHT_TOLERANCE
+    assert abs(window[:, 1].mean() - window[:, 2].mean()) < CONTACT_ORACLE_WEIGHT_TOLERANCE
 
 
 def test_mujoco_without_injected_current_the_estimate_stays_small(mujoco_runs: dict[float, Run]) -> None:
