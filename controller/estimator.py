@@ -59,31 +59,13 @@ the error itself supplies a gradient. That is why the default lambda is small: (
 noise / 0.3 m/s of expected current)^2 is 1e-5; at 1e-3 the sway component stalled 4 mm/s short on
 the model itself.
 
-Through contact (`through_contact`): over a period that begins and ends with only the tip (and the
-last link, which ends at it) within reach of a wall, the tip's contact force f [WEIGHT_UNIT N,
-world], applied at its contact point (the tip radius towards the plane), joins the weight as three
-more unknowns, fitted afresh each update (from the last update's f) and never filtered; the current
-is held. The residual is then every generalized speed (hull 6, joints n) in the model's
-kinetic-energy norm (L^T times the speeds, M = L L^T the mass matrix at h_prev): a weight at the CoM
-and a force at the tip, both vertical, differ in the moments and joint loads they make, and the
-wrist joints, of little inertia, where a small unmodelled contact torque makes large speed errors,
-weigh little (with unit weights on the speeds the wrist roll's 0.5 rad/s residual drove the MuJoCo
-estimate from 19 to -40 N for a 14.1 N heavier hull). Gauss-Newton steps until one is shorter than
-CONVERGED, at most CONTACT_STEPS. A touching update moves the estimate by the lag's gain only.
-Why the current is held: under the wide mismatch's fluid gaps the tip's normal force and a current
-towards the wall trade against each other (estimated together, arm-deployed's current went 0.6-0.8
-m/s wrong within a second, experiments/observer_contact). Why the impact's period is skipped: its
-target was the weight's bound, 50 N, where 41 N was injected.
-
 Cost: 8 to 11 calls of the compiled `held_steps` (4 RK4 substeps each) and a 3x3 solve or more,
 about 1 to 2 ms an update (medians of 1.0 to 2.2 ms over runs on a shared 2-core x86_64 machine; the
-first call loads the compiled code, tens of ms). A touching update takes 13 calls a Gauss-Newton
-step and a mass matrix: 7 ms median, 15 ms p95, 21 ms at most (wide mismatch, seed 3 of
-arm-deployed, thrusters-dead and wall-headon, beside a two-worker campaign).
+first call loads the compiled code, tens of ms).
 
 Settings (ObserverSettings): `time_constant` [s], `max_speed` [m/s], `max_weight` [N], `damping`
 lambda [1, on J^T J where J is in (m/s) per unit of theta], `fd_step` [unit of theta: m/s, or
-WEIGHT_UNIT N], `substeps` [1], `angular_weight` [m/rad], `through_contact`.
+WEIGHT_UNIT N], `substeps` [1], `angular_weight` [m/rad].
 """
 
 from __future__ import annotations
@@ -96,8 +78,6 @@ from controller.model import UVMSModel, water
 
 WEIGHT_UNIT = 10.0  # N of extra hull weight per unit of the observer's third unknown
 LM_TRIALS = 4  # dampings tried per update: lambda, 100 lambda, ... (Levenberg-Marquardt)
-CONTACT_STEPS = 8  # most Gauss-Newton steps of a touching update (the tip force starts from the last one's)
-CONVERGED = 1e-4  # units of theta (m/s, WEIGHT_UNIT N): a touching update's last step is shorter than this
 
 
 @dataclass(frozen=True)
@@ -111,7 +91,6 @@ class ObserverSettings:
     fd_step: float = 1e-3  # m/s or WEIGHT_UNIT N, central finite-difference step of theta for the Jacobian
     substeps: int = 4  # 1, RK4 steps of the prediction over one period (4: the controller's rollouts' code)
     angular_weight: float = 0.0  # m/rad, weight of the hull's angular-velocity residual (0: linear only)
-    through_contact: bool = False  # keep estimating while only the tip touches (its force a per-update unknown)
 
     def __post_init__(self) -> None:
         for name in ("time_constant", "max_speed", "max_weight", "damping", "fd_step"):
@@ -131,14 +110,11 @@ class CurrentObserver:
     def __init__(self, model: UVMSModel, settings: ObserverSettings = ObserverSettings()):
         self.model, self.settings = model, settings
         n = model.n_joints
-        rows = np.arange(6 + n, 9 + n) if settings.angular_weight == 0 else np.arange(6 + n, 12 + n)
-        weights = np.ones(len(rows))
-        weights[3:] = settings.angular_weight
-        self._free = (rows, weights)
-        self._speeds = np.arange(6 + n, 12 + 2 * n)  # every generalized speed: the rows in contact
+        self._rows = np.arange(6 + n, 9 + n) if settings.angular_weight == 0 else np.arange(6 + n, 12 + n)
+        self._weights = np.ones(len(self._rows))
+        self._weights[3:] = settings.angular_weight
         self._theta = np.zeros(3)  # c_x [m/s], c_y [m/s], W / WEIGHT_UNIT
         self._updates = 0  # updates since the last reset
-        self._force = np.zeros(3)  # the last touching update's tip force [WEIGHT_UNIT N, world]
 
     @staticmethod
     def _water(theta: np.ndarray) -> np.ndarray:
@@ -154,24 +130,13 @@ class CurrentObserver:
         """Forget the estimate (back to no extra current and no extra weight)."""
         self._theta = np.zeros(3)
         self._updates = 0
-        self._force = np.zeros(3)
 
     def _predict(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, known: np.ndarray,
                  theta: np.ndarray) -> np.ndarray:
         """The weighted hull velocities the model predicts at the end of the period."""
-        s, (rows, weights) = self.settings, self._free
+        s = self.settings
         vc = known + self._water(theta)
-        return self.model.held_steps(h_prev, u_prev, dt, s.substeps, vc=vc)[rows] * weights
-
-    def _predict_touching(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, known: np.ndarray,
-                          z: np.ndarray, lever: np.ndarray, metric: np.ndarray) -> np.ndarray:
-        """`metric` times the generalized speeds the model predicts at the end of the period under
-        theta = z[:3] and the tip's contact force z[3:] [WEIGHT_UNIT N, world] at `lever` [m, world]
-        from the tip sphere's centre."""
-        f = z[3:] * WEIGHT_UNIT
-        Fw = np.concatenate([f, np.cross(lever, f)])
-        vc = known + self._water(z[:3])
-        return metric @ self.model.held_steps(h_prev, u_prev, dt, self.settings.substeps, Fw=Fw, vc=vc)[self._speeds]
+        return self.model.held_steps(h_prev, u_prev, dt, s.substeps, vc=vc)[self._rows] * self._weights
 
     def _clip(self, theta: np.ndarray) -> np.ndarray:
         s, out = self.settings, theta.copy()
@@ -182,68 +147,36 @@ class CurrentObserver:
         return out
 
     def update(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, h_now: np.ndarray,
-               known_current: np.ndarray, tip_lever: np.ndarray | None = None) -> np.ndarray:
+               known_current: np.ndarray) -> np.ndarray:
         """One observer step: u_prev [N, N m] was held over dt [s] from the measured state h_prev to
-        the measured state h_now; known_current [m/s, world] is the current the controller knows;
-        tip_lever [m, world]: the tip's contact point from the tip sphere's centre, given when the tip
-        may have touched during the period (no other body did). Returns the updated `estimate`
-        (unchanged after a touching period unless `through_contact`)."""
+        the measured state h_now; known_current [m/s, world] is the current the controller knows.
+        Returns the updated `estimate`."""
         s = self.settings
         h_prev, u_prev, h_now = (np.asarray(a, float) for a in (h_prev, u_prev, h_now))
         known = water(np.asarray(known_current, float))
-        touching = tip_lever is not None
         if not (dt > 0 and np.all(np.isfinite(h_prev)) and np.all(np.isfinite(u_prev))
-                and np.all(np.isfinite(h_now)) and np.all(np.isfinite(known))) or (touching and not s.through_contact):
+                and np.all(np.isfinite(h_now)) and np.all(np.isfinite(known))):
             return self.estimate
-        if touching:
-            metric = np.linalg.cholesky(self.model.mass_and_bias(h_prev)[0]).T  # |metric v|^2 = v^T M v
-            lever = np.asarray(tip_lever, float)
-            z = np.concatenate([self._theta, self._force])
-            measured = metric @ h_now[self._speeds]
-
-            def predict(z: np.ndarray) -> np.ndarray:
-                return self._predict_touching(h_prev, u_prev, dt, known, z, lever, metric)
-        else:
-            z = self._theta.copy()
-            measured = h_now[self._free[0]] * self._free[1]
-
-            def predict(z: np.ndarray) -> np.ndarray:
-                return self._predict(h_prev, u_prev, dt, known, z)
-        target = self._theta
-        active = np.arange(2, 6) if touching else np.arange(len(z))  # in contact the current is held
-        for step in range(CONTACT_STEPS if touching else 1):
-            residual = measured - predict(z)
-            J = np.zeros((len(residual), len(z)))
-            for i in active:
-                e = s.fd_step * np.eye(len(z))[i]
-                J[:, i] = (predict(z + e) - predict(z - e)) / (2 * s.fd_step)
-            if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(J))):
-                if step == 0:
-                    return self.estimate
+        theta = self._theta
+        residual = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, theta)
+        J = np.empty((len(self._rows), 3))
+        for i, e in enumerate(s.fd_step * np.eye(3)):
+            ahead = self._predict(h_prev, u_prev, dt, known, theta + e)
+            behind = self._predict(h_prev, u_prev, dt, known, theta - e)
+            J[:, i] = (ahead - behind) / (2 * s.fd_step)
+        if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(J))):
+            return self.estimate
+        target, worst = theta, float(residual @ residual)
+        for damping in s.damping * 10.0 ** np.arange(0, 2 * LM_TRIALS, 2):
+            delta = np.linalg.solve(J.T @ J + damping * np.eye(3), J.T @ residual)
+            trial = self._clip(theta + delta)
+            r = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, trial)
+            if np.all(np.isfinite(r)) and float(r @ r) < worst:
+                target = trial
                 break
-            worst, z_before = float(residual @ residual), z
-            for damping in s.damping * 10.0 ** np.arange(0, 2 * LM_TRIALS, 2):
-                trial = z.copy()
-                Ja = J[:, active]
-                trial[active] += np.linalg.solve(Ja.T @ Ja + damping * np.eye(len(active)), Ja.T @ residual)
-                trial[:3] = self._clip(trial[:3])
-                r = measured - predict(trial)
-                if np.all(np.isfinite(r)) and float(r @ r) < worst:
-                    z = trial
-                    break
-            if z is z_before:  # no damping lowered the residual
-                break
-            target = z[:3]
-            if np.max(np.abs(z - z_before)) < CONVERGED:
-                break
-        self._force = z[3:] if touching else np.zeros(3)
-        lag = -np.expm1(-dt / s.time_constant)
-        if touching:  # a touching target is noisier: the lag's gain only, and no count towards the memory
-            gain = lag
-        else:
-            self._updates += 1
-            gain = max(1.0 / self._updates, lag)
-        self._theta = self._theta + gain * (target - self._theta)
+        self._updates += 1
+        gain = max(1.0 / self._updates, -np.expm1(-dt / s.time_constant))
+        self._theta = theta + gain * (target - theta)
         return self.estimate
 
 

@@ -428,12 +428,9 @@ class SwitchingController:
     With `switching=False` in its settings it is the Mode-I-only baseline. With `observe_current` (the
     default) the model's current is the known one plus controller.estimator's estimate of the rest, and the
     model's hull weight its own plus the estimated extra weight, updated from each pair of measured
-    states in any mode while every body but the last link is at least `contact_clearance` off every
-    plane at both (a body's contact force would read as a current or a weight), and held otherwise.
-    A tip or last link within that clearance at both states holds it too, unless
-    ObserverSettings.through_contact makes the tip's force three more unknowns of that update (the
-    current then held); within it at only one of them (an impact) always holds it.
-    Under a latency it is never updated (it assumes one input over each interval).
+    states in any mode while every body and the tip are at least `contact_clearance` off every plane
+    at both (a contact's force would read as a current or a weight), and held
+    otherwise; under a latency it is never updated (it assumes one input over each interval).
 
     With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
     after the measured one under the input it returned last, which acts meanwhile, in free flight
@@ -454,7 +451,7 @@ class SwitchingController:
         self.observer: CurrentObserver | None = None
         self._task: Task | None = None
         self._failed: tuple[int, ...] = ()
-        self._last: tuple[np.ndarray, np.ndarray, float, tuple[bool, bool]] | None = None  # h, u, t, _clear(h)
+        self._last: tuple[np.ndarray, np.ndarray, float, bool] | None = None  # h, u, t, whether observed free
 
     def reset(self, task: Task) -> None:
         model = UVMSModel(task.params, task.scene.water)
@@ -484,13 +481,10 @@ class SwitchingController:
             self.nmpc.set_failed_thrusters(failed)
             self._failed = failed
         known = water(self._task.scene.current.at(t))
-        clear = self._clear(h) if self.observer is not None else (False, False)
+        free = self.observer is not None and self._free(h)
         if self.observer is not None:
-            last = self._last
-            if (last is not None and last[3][0] and clear[0] and last[3][1] == clear[1] and t > last[2]
-                    and self.latency == 0.0):
-                touching = None if clear[1] else self._tip_lever(h)
-                self.observer.update(last[0], last[1], t - last[2], np.asarray(h, float), known, touching)
+            if self._last is not None and self._last[3] and free and t > self._last[2] and self.latency == 0.0:
+                self.observer.update(self._last[0], self._last[1], t - self._last[2], np.asarray(h, float), known)
             known = known + self.observer.estimate
         self.nmpc.current = known
         if self._started and self.latency > 0.0:  # the first step's input acts at once
@@ -499,21 +493,11 @@ class SwitchingController:
         else:
             u, info = self.nmpc.step(h, t)
         self._started = True
-        self._last = (np.asarray(h, float).copy(), u.copy(), t, clear)
+        self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
         return u, replace(info, water=known.copy())
 
-    def _clear(self, h: np.ndarray) -> tuple[bool, bool]:
-        """Whether every body but the last link, and whether the tip and the last link (which ends
-        at the tip), are at least `contact_clearance` off every plane (no contact force acts there)."""
+    def _free(self, h: np.ndarray) -> bool:
+        """Every body and the tip at least `contact_clearance` off every plane: no contact force acts."""
         model, h = self.nmpc.model, np.asarray(h, float)
-        gaps = [np.asarray(model.distances(h, pl.normal, pl.offset), float).ravel() for pl in self.nmpc.planes]
-        tips = [float(tip_gap(model, h, pl)) for pl in self.nmpc.planes]
-        return (all(float(np.min(g[:-1])) > self.contact_clearance for g in gaps),
-                all(min(float(g[-1]), tip) > self.contact_clearance for g, tip in zip(gaps, tips, strict=True)))
-
-    def _tip_lever(self, h: np.ndarray) -> np.ndarray:
-        """The tip's contact point from its sphere's centre [m, world]: the tip radius towards the
-        nearest plane."""
-        model, h = self.nmpc.model, np.asarray(h, float)
-        nearest = min(self.nmpc.planes, key=lambda pl: float(tip_gap(model, h, pl)))
-        return -model.params.arm.tip_radius * np.asarray(nearest.normal, float)
+        return all(float(np.min(np.asarray(model.distances(h, pl.normal, pl.offset)))) > self.contact_clearance
+                   and float(tip_gap(model, h, pl)) > self.contact_clearance for pl in self.nmpc.planes)

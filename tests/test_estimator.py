@@ -36,7 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pytest
 
-from controller.estimator import WEIGHT_UNIT, CurrentObserver, ObserverSettings
+from controller.estimator import CurrentObserver, ObserverSettings
 from controller.model import UVMSModel, water
 from uvms import load_params, load_scene
 from uvms.conventions import euler_zyx_to_matrix
@@ -80,20 +80,6 @@ HEAVY_TOLERANCE = NO_WEIGHT_TOLERANCE  # N
 # the observer's own error against the oracle (ORACLE_TOLERANCE).
 DRAG_GAP_BOUND = 0.035  # m/s, |oracle - injected| at this state; measured 0.028 m/s
 INJECTED_TOLERANCE = DRAG_GAP_BOUND + ORACLE_TOLERANCE  # m/s
-# Through contact on the Kane model, pushes of 5-25 N on the tip (the test's docstring): each update's
-# fitted force within 3e-3 N of the push (the convergence stop, CONVERGED = 1e-3 N of step, plus the
-# 4-versus-50-step RK4 difference); 0.01 N leaves a factor 3. The weight after DURATION: the lag bound
-# above (touching updates take the lag's gain only, so 10 time constants from the start).
-FORCE_TOLERANCE = 0.01  # N
-# Through contact in MuJoCo (thrusters-dead, mass*1.1, the tip on the wall from about 0.75 s): the
-# oracle is the weight at which the model, given MuJoCo's own tip wrench (Plant.ee_wrench) and the
-# observer's current (held in contact), has MuJoCo's hull linear acceleration (least squares). Over
-# CONTACT_WINDOW its mean is 10.66 N, the estimate's 9.87 N (not the injected 14.1 N: with the hull held
-# against the scene's current the fluid models differ); over the next second 9.39 and 9.41 N. The
-# oracle's own spread is 0.9 N (sd of its 10 samples) and the estimate lags it by the filter's 0.5 s;
-# 1.5 N is about twice the largest gap and under the tip's vertical force (5-6 N) that a leak would add.
-CONTACT_ORACLE_WEIGHT_TOLERANCE = 1.5  # N
-CONTACT_WINDOW = (2.0, 3.0)  # s, the window of the MuJoCo comparison
 # Convergence: within INJECTED_TOLERANCE of the injected current for good after one time constant
 # (measured: from 0.3 s on; the growing memory takes the first targets nearly whole).
 CONVERGENCE_TIME = ObserverSettings().time_constant  # s
@@ -264,90 +250,6 @@ def test_on_the_model_in_its_linear_regime_the_filter_takes_the_first_target_the
     within(estimates_after(0), np.outer(np.ones(steps), truth))
     t = DT * np.arange(1, steps + 1)
     within(estimates_after(steps + 1), np.outer(1 - np.exp(-t / time_constant), truth))
-
-
-@pytest.mark.parametrize(("current", "weight", "seed"), [((0.0, 0.0), 0.0, 0), ((INJECTED, 0.08), 20.0, 1),
-                                                         ((INJECTED, 0.08), -10.0, 2)])
-def test_through_contact_on_the_model_itself_the_tip_force_does_not_leak(model: UVMSModel, current: tuple,
-                                                                          weight: float, seed: int) -> None:
-    """The Kane model as the plant (2 ms RK4 steps) in a horizontal current that the observer is told,
-    its hull `weight` [N] heavier in water, station keeping yawed YAW, while a wall pushes the tip at
-    its contact point: 5-25 N along the wall's normal (world -x) and friction up to 0.3 of that along
-    the wall, drawn afresh each period. The observer (`through_contact`) is told where the contact
-    point is and nothing of the push: after DURATION the weight is within WEIGHT_LAG_TOLERANCE, the
-    current stays exactly as told (held in contact), and every update from the sixth on fits the
-    period's push within FORCE_TOLERANCE."""
-    p, rng = model.params, np.random.default_rng(seed)
-    c, normal = np.array([*current, 0.0]), np.array([-1.0, 0.0, 0.0])
-    lever = -p.arm.tip_radius * normal  # the contact point from the tip sphere's centre
-    h0 = np.zeros(p.n_states)
-    h0[2], h0[5], h0[6:6 + p.n_joints] = -1.5, np.radians(YAW), p.arm.stowed
-    policy, observer = station_keeper(model, h0), CurrentObserver(model, ObserverSettings(through_contact=True))
-    h, force_errors = h0, []
-    for _ in range(round(DURATION / DT)):
-        u, push = policy(h), rng.uniform(5.0, 25.0)
-        f = push * (normal + np.array([0.0, *rng.uniform(-0.3, 0.3, 2)]))
-        x = h.copy()
-        for _ in range(50):
-            x = model.step(x, u, DT / 50, Fw=np.concatenate([f, np.cross(lever, f)]), vc=water(c, weight))
-        observer.update(h, u, DT, x, c, tip_lever=lever)
-        force_errors.append(np.max(np.abs(observer._force * WEIGHT_UNIT - f)))
-        h = x
-    assert abs(observer.estimate[3] - weight) < WEIGHT_LAG_TOLERANCE
-    np.testing.assert_array_equal(observer.estimate[:3], 0.0)
-    assert max(force_errors[5:]) < FORCE_TOLERANCE
-
-
-@pytest.mark.slow
-def test_through_contact_in_mujoco_the_estimate_is_mujocos_equivalent_disturbance(params: UVMSParams) -> None:
-    """thrusters-dead with the hull 10 % heavier (`mass*1.1`), 3 s, the observer `through_contact`:
-    while only the tip touches, its weight's mean over CONTACT_WINDOW equals the mean of the oracle's
-    (the weight at which the model, given MuJoCo's own tip wrench and the observer's current, has
-    MuJoCo's hull acceleration) within CONTACT_ORACLE_WEIGHT_TOLERANCE: the tip's force does not leak
-    into the weight."""
-    from controller.switching import SwitchingController, SwitchingSettings
-    from validation.closed_loop import run
-
-    seen: dict = {}
-    rows = []
-
-    class Capture:
-        def __init__(self, plant) -> None:
-            seen["plant"] = plant
-
-        def observe(self, t, report, info, u) -> None:
-            seen["u"] = u
-
-        def close(self) -> None:
-            pass
-
-    class Traced(SwitchingController):
-        def step(self, h, t):
-            u, info = super().step(h, t)
-            bodies_clear, tip_clear = self._last[3]
-            if bodies_clear and not tip_clear and "u" in seen:
-                plant, applied, est = seen["plant"], seen["u"], self.observer.estimate
-                model, n = self.nmpc.model, self.nmpc.model.n_joints
-                base = water(self._task.scene.current.at(t)) + water(est[:3])
-                wrench, target = plant.ee_wrench(), plant.acceleration(applied)[:3]
-
-                def accel(weight: float) -> np.ndarray:
-                    return model.hdot(h, applied, Fw=wrench, vc=base + water(None, weight))[6 + n:9 + n]
-
-                weight = float(est[3])
-                for _ in range(5):  # Gauss-Newton on one unknown: the acceleration is affine in it
-                    slope = (accel(weight + 1e-3) - accel(weight - 1e-3)) / 2e-3
-                    weight -= float(slope @ (accel(weight) - target) / (slope @ slope))
-                rows.append((t, est[3], weight))
-            return u, info
-
-    settings = SwitchingSettings(observer=ObserverSettings(through_contact=True))
-    run(replace(get("thrusters-dead"), duration=3.0), controller=Traced(settings), mismatch="mass*1.1", seed=0,
-        observers=[Capture])
-    r = np.array(rows)
-    window = r[(r[:, 0] > CONTACT_WINDOW[0]) & (r[:, 0] <= CONTACT_WINDOW[1])]
-    assert len(window) >= 9  # the tip on the wall throughout the window
-    assert abs(window[:, 1].mean() - window[:, 2].mean()) < CONTACT_ORACLE_WEIGHT_TOLERANCE
 
 
 def test_mujoco_without_injected_current_the_estimate_stays_small(mujoco_runs: dict[float, Run]) -> None:
@@ -523,8 +425,8 @@ def test_switching_controller_weighs_a_heavier_hull_before_mode2s_contact(params
     observer, fed in Mode II while no body or tip is within `contact_clearance` of a plane, has
     the extra weight within 10 % when the tip comes within that clearance of the wall (measured
     13.3 N, 5 % short, after 0.65 s, and 13.5 N after the first update: the arm's swing read through
-    the model's 10 % lighter hull inertia), and without `through_contact` it holds the estimate
-    unchanged through every step in contact."""
+    the model's 10 % lighter hull inertia), and it holds the estimate unchanged through every step
+    in contact."""
     from controller.switching import SwitchingController, SwitchingSettings
     from validation.closed_loop import run
 
@@ -534,12 +436,11 @@ def test_switching_controller_weighs_a_heavier_hull_before_mode2s_contact(params
         def step(self, h, t):
             u, info = super().step(h, t)
             estimates.append(self.observer.estimate)
-            free.append(all(self._last[3]))
+            free.append(self._last[3])
             return u, info
 
     sc = replace(get("thrusters-dead"), duration=1.5)
-    settings = SwitchingSettings(observe_current=True, observer=ObserverSettings(through_contact=False))
-    run(sc, controller=Traced(settings), mismatch="mass*1.1", seed=0)
+    run(sc, controller=Traced(SwitchingSettings(observe_current=True)), mismatch="mass*1.1", seed=0)
     extra = 0.1 * params.hull.mass * load_scene().water.gravity
     est, free = np.array(estimates), np.array(free)
     first_contact = int(np.argmin(free))
