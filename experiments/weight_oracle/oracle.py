@@ -38,7 +38,7 @@ class Told:
         return self.estimate
 
     def reset(self) -> None:
-        pass
+        """Nothing to forget: the truth stays told."""
 
 
 class Oracle(SwitchingController):
