@@ -65,7 +65,9 @@ first call loads the compiled code, tens of ms).
 
 Settings (ObserverSettings): `time_constant` [s], `max_speed` [m/s], `max_weight` [N], `damping`
 lambda [1, on J^T J where J is in (m/s) per unit of theta], `fd_step` [unit of theta: m/s, or
-WEIGHT_UNIT N], `substeps` [1], `angular_weight` [m/rad].
+WEIGHT_UNIT N], `substeps` [1], `angular_weight` [m/rad], `trim` (a weight known before the first
+update, from a trim check: the filter starts there and moves the weight by its lag only, so the
+first periods' guesses do not replace it).
 """
 
 from __future__ import annotations
@@ -91,6 +93,7 @@ class ObserverSettings:
     fd_step: float = 1e-3  # m/s or WEIGHT_UNIT N, central finite-difference step of theta for the Jacobian
     substeps: int = 4  # 1, RK4 steps of the prediction over one period (4: the controller's rollouts' code)
     angular_weight: float = 0.0  # m/rad, weight of the hull's angular-velocity residual (0: linear only)
+    trim: bool = False  # start the weight at the task's told trim (Task.trim) and move it by the lag only
 
     def __post_init__(self) -> None:
         for name in ("time_constant", "max_speed", "max_weight", "damping", "fd_step"):
@@ -107,14 +110,20 @@ class CurrentObserver:
     """Estimates the extra horizontal current [m/s, world] and the hull's extra weight in water [N]
     from consecutive measured states (module docstring)."""
 
-    def __init__(self, model: UVMSModel, settings: ObserverSettings = ObserverSettings()):
+    def __init__(self, model: UVMSModel, settings: ObserverSettings = ObserverSettings(),
+                 weight: float | None = None):
+        """`weight` [N]: the extra hull weight in water known before the first update (a trim check's
+        less the model's own), which the filter then moves by its lag only; None: unknown, learnt
+        like the current."""
         self.model, self.settings = model, settings
+        self._prior = None if weight is None or not np.isfinite(weight) else float(weight)
         n = model.n_joints
         self._rows = np.arange(6 + n, 9 + n) if settings.angular_weight == 0 else np.arange(6 + n, 12 + n)
         self._weights = np.ones(len(self._rows))
         self._weights[3:] = settings.angular_weight
         self._theta = np.zeros(3)  # c_x [m/s], c_y [m/s], W / WEIGHT_UNIT
         self._updates = 0  # updates since the last reset
+        self.reset()
 
     @staticmethod
     def _water(theta: np.ndarray) -> np.ndarray:
@@ -127,8 +136,10 @@ class CurrentObserver:
         return self._water(self._theta)
 
     def reset(self) -> None:
-        """Forget the estimate (back to no extra current and no extra weight)."""
+        """Forget the estimate (back to no extra current and the known weight, or none)."""
         self._theta = np.zeros(3)
+        if self._prior is not None:
+            self._theta = self._clip(np.array([0.0, 0.0, self._prior / WEIGHT_UNIT]))
         self._updates = 0
 
     def _predict(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, known: np.ndarray,
@@ -175,7 +186,10 @@ class CurrentObserver:
                 target = trial
                 break
         self._updates += 1
-        gain = max(1.0 / self._updates, -np.expm1(-dt / s.time_constant))
+        lag = -np.expm1(-dt / s.time_constant)
+        gain = np.full(3, max(1.0 / self._updates, lag))
+        if self._prior is not None:
+            gain[2] = lag
         self._theta = theta + gain * (target - theta)
         return self.estimate
 

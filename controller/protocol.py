@@ -41,7 +41,8 @@ class Task:
     planes, the current it knows: scene.current.at(t) [m/s, world]), the start state, the reference
     h_ref(t), the faults it is told of, the run's length [s], and the latency [s]: each input but
     the first step's acts from `latency` after its state's sample until the next input does, the
-    previous input acting meanwhile (0: the plant waits for the controller)."""
+    previous input acting meanwhile (0: the plant waits for the controller), and the vehicle's
+    weight in water as a trim check before the run measured it (None: not measured)."""
 
     name: str
     params: UVMSParams
@@ -51,6 +52,7 @@ class Task:
     known_faults: tuple[KnownFault, ...] = ()
     duration: float = 0.0
     latency: float = 0.0  # s: each input reaches the thrusters this long after its state's sample
+    trim: float | None = None  # N, positive: sinks; whole vehicle, still water, at h0 (uvms_mj Plant.trim_weight)
 
     def failed_thrusters(self, t: float) -> tuple[int, ...]:
         """The thrusters known to be dead at time t [s] (sorted)."""

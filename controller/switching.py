@@ -471,7 +471,12 @@ class SwitchingController:
                                                            max(m2.dt_bounds[1], self.latency))))
         self._started = False
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
-        self.observer = CurrentObserver(model, self.settings.observer) if self.settings.observe_current else None
+        self.observer = None
+        if self.settings.observe_current:
+            trimmed = self.settings.observer.trim and task.trim is not None
+            extra = task.trim - task.params.weight_in_water(task.scene.water.density, task.scene.water.gravity) \
+                if trimmed else None
+            self.observer = CurrentObserver(model, self.settings.observer, weight=extra)
 
     def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, StepInfo]:
         if self.nmpc is None or self._task is None:

@@ -275,10 +275,10 @@ def test_a_crashing_run_is_recorded_and_the_others_finish(tmp_path) -> None:
 def test_mismatch_is_parsed_seeded_and_rejected_in_one_line() -> None:
     """The default spec parses; the same seed draws the same values, another seed others, all
     within their uniform ranges; bad specs give one line naming what is allowed."""
-    assert {t.name for t in parse(DEFAULT)} == {"added_mass", "drag", "mass", "cob", "friction"}
+    assert {t.name for t in parse(DEFAULT)} == {"added_mass", "drag", "mass", "cob", "friction", "trim"}
     a, b, c = draw(DEFAULT, 3), draw(DEFAULT, 3), draw(DEFAULT, 4)
     assert a == b and a != c
-    assert 0.8 <= a["added_mass"] <= 1.2 and -0.003 <= a["cob"] <= 0.003
+    assert 0.8 <= a["added_mass"] <= 1.2 and -0.003 <= a["cob"] <= 0.003 and -2.0 <= a["trim"] <= 2.0
     for bad in ("added_mass*U(0.8)", "mass+U(0,1)", "viscosity*2", "drag*fast", "wider"):
         with pytest.raises(ValueError, match="allowed") as err:
             resolve(bad)
@@ -287,13 +287,14 @@ def test_mismatch_is_parsed_seeded_and_rejected_in_one_line() -> None:
 
 def test_wide_mismatch_draws_within_its_declared_ranges() -> None:
     """The named "wide" spec: over 200 seeds every draw lies in its declared range (mass 0.8-1.3,
-    added mass and drag 0.7-1.3, friction coefficient 0.1-0.8, current -0.2 to 0.2 m/s), and the draws
+    added mass and drag 0.7-1.3, friction coefficient 0.1-0.8, current -0.2 to 0.2 m/s, trim error
+    -2 to 2 N), and the draws
     span most of each range (a uniform draw's extremes over 200 seeds come within 2 % of its ends with
     probability above 1 - 2 * 0.98^200 = 0.96; 10 % is asked)."""
     assert resolve("wide") == WIDE and resolve("default") == DEFAULT and resolve("none") == NONE
     draws = [draw(WIDE, seed) for seed in range(200)]
     for name, (lo, hi) in {"mass": (0.8, 1.3), "added_mass": (0.7, 1.3), "drag": (0.7, 1.3),
-                           "friction_coefficient": (0.1, 0.8), "current": (-0.2, 0.2)}.items():
+                           "friction_coefficient": (0.1, 0.8), "current": (-0.2, 0.2), "trim": (-2.0, 2.0)}.items():
         values = np.array([d[name] for d in draws])
         assert lo <= values.min() and values.max() <= hi, name
         assert values.min() < lo + 0.1 * (hi - lo) and values.max() > hi - 0.1 * (hi - lo), name
@@ -437,6 +438,32 @@ def test_every_preset_steps_on_every_scenario(preset, tmp_path) -> None:
     for name in SCENARIOS:
         s = run(replace(get(name), duration=0.3), controller=preset, seed=0)
         assert s.steps and 0.3 <= s.simulated_s + 1e-9 < 0.4 and s.verdict in {o.value for o in Outcome}
+
+
+class _Listener:
+    """A controller that only keeps what it is told and holds every input at zero."""
+
+    def reset(self, task) -> None:
+        self.task = task
+
+    def step(self, h, t):
+        from controller.protocol import StepInfo
+
+        return np.zeros(self.task.params.n_inputs), StepInfo(t=t, dt=0.1)
+
+
+@pytest.mark.parametrize("spec", ["mass*1.25 trim+1.5", "mass*0.85 trim+-2", "mass_inertia*1.3"])
+def test_the_controller_is_told_the_trim_checks_weight_with_its_declared_error(params, scene, spec: str) -> None:
+    """The task's trim is the drawn vehicle's weight in water at the start (the closed form of the
+    plant's masses and volumes, MuJoCo's own measurement checked in test_plant_hydrostatics) plus the
+    mismatch's declared trim error: told less the model's own it is (k - 1) m g + error for `mass*k`,
+    the error alone for `mass_inertia` (1e-9 N: the same numbers)."""
+    listener = _Listener()
+    run(replace(get("wall-headon"), duration=0.1), controller=listener, mismatch=spec)
+    drawn, rho, g = draw(spec, 0), scene.water.density, scene.water.gravity
+    k = drawn.get("mass", 1.0)
+    expected = (k - 1.0) * params.hull.mass * g + drawn.get("trim", 0.0)
+    assert listener.task.trim - params.weight_in_water(rho, g) == pytest.approx(expected, abs=1e-9)
 
 
 class _Garbage:

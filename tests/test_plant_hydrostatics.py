@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import mujoco
 import numpy as np
 import pytest
@@ -64,6 +66,31 @@ def test_full_vehicle_gravity_and_buoyancy_forces(params, open_water) -> None:
         # translational DOFs = total world force on the system.
         fz = (plant.data.qfrc_passive - plant.data.qfrc_bias)[2]
         assert fz == pytest.approx(net, rel=1e-6)
+
+
+@pytest.mark.parametrize("spec", ["", "mass*1.2", "mass_weight*0.85 current+0.2"])
+def test_trim_check_measures_the_parameter_files_weight_in_water(params, scene, spec: str) -> None:
+    """Plant.trim_weight (MuJoCo's inverse dynamics at rest, flow and contacts off) at a tilted pose
+    beside the walls equals the closed form sum (m_i - rho V_i) g of the drawn vehicle's parameters
+    (UVMSParams.weight_in_water; rel 1e-9 plus 1e-9 N: the same numbers summed two ways), and leaves
+    the plant's state, current and contacts as they were."""
+    from validation import mismatch
+
+    drawn, rho, g = mismatch.draw(spec, 0), scene.water.density, scene.water.gravity
+    plant_params, plant_scene, current, _ = mismatch.apply(params, scene, drawn)
+    plant = Plant(plant_params, plant_scene.with_current(replace(plant_scene.current,
+                                                                 velocities=plant_scene.current.velocities + current)))
+    h = np.zeros(params.n_states)
+    h[3:6], h[6:6 + params.n_joints] = (0.2, -0.3, 0.5), params.arm.home
+    plant.reset(h)
+    before, wind, flags = plant.state(), plant.model.opt.wind.copy(), plant.model.opt.disableflags
+    assert plant.trim_weight() == pytest.approx(plant_params.weight_in_water(rho, g), rel=1e-9, abs=1e-9)
+    np.testing.assert_array_equal(plant.state(), before)
+    np.testing.assert_array_equal(plant.model.opt.wind, wind)
+    assert plant.model.opt.disableflags == flags
+    if "mass*" in spec:
+        extra = plant.trim_weight() - params.weight_in_water(rho, g)
+        assert extra == pytest.approx(0.2 * params.hull.mass * g, rel=1e-9)
 
 
 def test_default_vehicle_is_trimmed_level_and_slightly_buoyant(params, open_water) -> None:

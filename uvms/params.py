@@ -181,6 +181,12 @@ class UVMSParams:
         along = self.allocation_matrix()[:3].T @ np.asarray(direction, float)
         return float(np.sum(np.maximum(along * lo[:nt], along * hi[:nt])))
 
+    def weight_in_water(self, density: float, gravity: float) -> float:
+        """The whole vehicle's weight less its buoyancy [N] (positive: it sinks): sum of (m_i - rho V_i) g
+        over the hull (its trim folded in) and the links; density [kg/m^3], gravity [m/s^2]."""
+        parts = [(self.hull.mass, self.hull.volume)] + [(lk.mass, lk.volume) for lk in self.arm.links]
+        return float(sum(m - density * v for m, v in parts) * gravity)
+
     def without_arm(self) -> UVMSParams:
         """The hull alone (zero links): for hull-only experiments."""
         arm = Arm(name="none", links=(), home=_frozen([]), stowed=_frozen([]), end_effector=_frozen([0, 0, 0]),

@@ -163,6 +163,24 @@ class Plant:
         self._ext[self.model.body(body).id] = w
         self._has_ext = bool(np.any(self._ext != 0))
 
+    def trim_weight(self) -> float:
+        """The vehicle's weight in water [N] (positive: it sinks) as a trim check in still water measures
+        it: the world-vertical force that holds the whole vehicle still at its present pose and
+        posture, from MuJoCo's inverse dynamics at zero velocity and acceleration with the flow and
+        contacts off (the plant's state is untouched)."""
+        if self._fixed:
+            raise ValueError("trim_weight of a fixed-base plant; allowed: a free-floating vehicle")
+        m, d = self.model, mujoco.MjData(self.model)
+        d.qpos[:] = self.data.qpos
+        wind, flags = m.opt.wind.copy(), m.opt.disableflags
+        m.opt.wind[:] = 0.0
+        m.opt.disableflags = flags | mujoco.mjtDisableBit.mjDSBL_CONTACT
+        try:
+            mujoco.mj_inverse(m, d)
+        finally:
+            m.opt.wind[:], m.opt.disableflags = wind, flags
+        return float(d.qfrc_inverse[2])
+
     # ----------------------------------------------------------------------------- stepping
     def step(self, u: np.ndarray, duration: float) -> PlantReport:
         """Hold u (zero-order) for `duration` seconds of physics steps and report."""

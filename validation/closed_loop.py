@@ -213,6 +213,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     params, scene, plant, drawn = build_plant(sc, mismatch, seed)
     task = task_of(sc, params, scene, spec.told)
     plant.reset(task.h0)
+    task = replace(task, trim=plant.trim_weight() + drawn.get("trim", 0.0))
     ctl_obj.reset(task)
     tally, telemetry = ContactTally(plant), Telemetry(plant)
     watching: list[Observer] = [tally, telemetry, *(make(plant) for make in observers)]

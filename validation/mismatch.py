@@ -12,6 +12,8 @@ A mismatch is written as terms separated by spaces, each `name OP distribution`:
     current+U(-0.1,0.1)     add an unknown current along world x [m/s] to the plant's
     friction*U(0.6,1.4)     scale the obstacles' contact friction
     friction_coefficient=U(0.1,0.8)  set every obstacle's contact friction coefficient [-]
+    trim+U(-2,2)            the error of the trim check that tells the controller the vehicle's weight
+                            in water before the run [N] (controller.protocol.Task.trim)
     thruster=U(0,8)         one thruster, floor of the draw, dead from t = 0 without the controller
                             knowing
 with distributions U(a,b) (uniform), N(mean,std) (normal) or a plain number. The draw is seeded; the
@@ -22,7 +24,8 @@ Named specs (`NAMED`, the command line's `--mismatch NAME`): "default", the para
 uncertainty as a well-identified vehicle has it; "wide", a vehicle known only roughly (hull mass
 -20 to +30 % with its volume kept, so it is up to 4 kg heavy or 2.7 kg light in water; added mass
 and drag +-30 %; a wall friction coefficient anywhere from 0.1 to 0.8; an unknown current of up to
-0.2 m/s along world x, towards or away from the wall); "none".
+0.2 m/s along world x, towards or away from the wall); "none". Both named uncertain specs tell the
+controller the vehicle's weight in water to within 2 N, as a trim check before a dive does.
 """
 
 from __future__ import annotations
@@ -35,13 +38,13 @@ import numpy as np
 from uvms.params import UVMSParams
 from uvms.scene import Scene
 
-DEFAULT = "added_mass*U(0.8,1.2) drag*U(0.8,1.2) mass*U(0.97,1.03) cob+U(-0.003,0.003) friction*U(0.6,1.4)"
+DEFAULT = "added_mass*U(0.8,1.2) drag*U(0.8,1.2) mass*U(0.97,1.03) cob+U(-0.003,0.003) friction*U(0.6,1.4) trim+U(-2,2)"
 NONE = ""
 WIDE = ("added_mass*U(0.7,1.3) drag*U(0.7,1.3) mass*U(0.8,1.3) cob+U(-0.003,0.003) friction_coefficient=U(0.1,0.8) "
-        "current+U(-0.2,0.2)")
+        "current+U(-0.2,0.2) trim+U(-2,2)")
 NAMED = {"default": DEFAULT, "wide": WIDE, "none": NONE}
 _OPS = {"added_mass": "*", "drag": "*", "mass": "*", "mass_weight": "*", "mass_inertia": "*", "cob": "+",
-        "current": "+", "friction": "*", "friction_coefficient": "=", "thruster": "="}
+        "current": "+", "trim": "+", "friction": "*", "friction_coefficient": "=", "thruster": "="}
 _TERM = re.compile(r"^(?P<name>[a-z_]+)(?P<op>[*+=])(?P<dist>.+)$")
 _DIST = re.compile(r"^(?:(?P<kind>[UN])\((?P<a>[-+0-9.eE]+),(?P<b>[-+0-9.eE]+)\)|(?P<value>[-+0-9.eE]+))$")
 
