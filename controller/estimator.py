@@ -65,9 +65,10 @@ first call loads the compiled code, tens of ms).
 
 Settings (ObserverSettings): `time_constant` [s], `max_speed` [m/s], `max_weight` [N], `damping`
 lambda [1, on J^T J where J is in (m/s) per unit of theta], `fd_step` [unit of theta: m/s, or
-WEIGHT_UNIT N], `substeps` [1], `angular_weight` [m/rad], `trim` (a weight known before the first
-update, from a trim check: the filter starts there and moves the weight by its lag only, so the
-first periods' guesses do not replace it).
+WEIGHT_UNIT N], `substeps` [1], `angular_weight` [m/rad], `trim` (the weight before the first update
+is the task's trim check's, not zero: a vehicle on the wall before its observer has seen a free
+period plans with it; the first free update replaces it, since what the model needs is the
+equivalent weight of its own fluid model, not the true one: experiments/trim_prior).
 """
 
 from __future__ import annotations
@@ -93,7 +94,7 @@ class ObserverSettings:
     fd_step: float = 1e-3  # m/s or WEIGHT_UNIT N, central finite-difference step of theta for the Jacobian
     substeps: int = 4  # 1, RK4 steps of the prediction over one period (4: the controller's rollouts' code)
     angular_weight: float = 0.0  # m/rad, weight of the hull's angular-velocity residual (0: linear only)
-    trim: bool = False  # start the weight at the task's told trim (Task.trim) and move it by the lag only
+    trim: bool = False  # start the weight at the task's told trim (Task.trim) until the first update
 
     def __post_init__(self) -> None:
         for name in ("time_constant", "max_speed", "max_weight", "damping", "fd_step"):
@@ -113,8 +114,8 @@ class CurrentObserver:
     def __init__(self, model: UVMSModel, settings: ObserverSettings = ObserverSettings(),
                  weight: float | None = None):
         """`weight` [N]: the extra hull weight in water known before the first update (a trim check's
-        less the model's own), which the filter then moves by its lag only; None: unknown, learnt
-        like the current."""
+        less the model's own), the estimate until then (the first update takes its target whole, as
+        without it); None: zero until then."""
         self.model, self.settings = model, settings
         self._prior = None if weight is None or not np.isfinite(weight) else float(weight)
         n = model.n_joints
@@ -186,10 +187,7 @@ class CurrentObserver:
                 target = trial
                 break
         self._updates += 1
-        lag = -np.expm1(-dt / s.time_constant)
-        gain = np.full(3, max(1.0 / self._updates, lag))
-        if self._prior is not None:
-            gain[2] = lag
+        gain = max(1.0 / self._updates, -np.expm1(-dt / s.time_constant))
         self._theta = theta + gain * (target - theta)
         return self.estimate
 
