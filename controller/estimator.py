@@ -65,10 +65,7 @@ first call loads the compiled code, tens of ms).
 
 Settings (ObserverSettings): `time_constant` [s], `max_speed` [m/s], `max_weight` [N], `damping`
 lambda [1, on J^T J where J is in (m/s) per unit of theta], `fd_step` [unit of theta: m/s, or
-WEIGHT_UNIT N], `substeps` [1], `angular_weight` [m/rad], `trim` (the weight before the first update
-is the task's trim check's, not zero: a vehicle on the wall before its observer has seen a free
-period plans with it; the first free update replaces it, since what the model needs is the
-equivalent weight of its own fluid model, not the true one: experiments/trim_prior).
+WEIGHT_UNIT N], `substeps` [1], `angular_weight` [m/rad].
 """
 
 from __future__ import annotations
@@ -94,7 +91,6 @@ class ObserverSettings:
     fd_step: float = 1e-3  # m/s or WEIGHT_UNIT N, central finite-difference step of theta for the Jacobian
     substeps: int = 4  # 1, RK4 steps of the prediction over one period (4: the controller's rollouts' code)
     angular_weight: float = 0.0  # m/rad, weight of the hull's angular-velocity residual (0: linear only)
-    trim: bool = False  # start the weight at the task's told trim (Task.trim) until the first update
 
     def __post_init__(self) -> None:
         for name in ("time_constant", "max_speed", "max_weight", "damping", "fd_step"):
@@ -111,20 +107,14 @@ class CurrentObserver:
     """Estimates the extra horizontal current [m/s, world] and the hull's extra weight in water [N]
     from consecutive measured states (module docstring)."""
 
-    def __init__(self, model: UVMSModel, settings: ObserverSettings = ObserverSettings(),
-                 weight: float | None = None):
-        """`weight` [N]: the extra hull weight in water known before the first update (a trim check's
-        less the model's own), the estimate until then (the first update takes its target whole, as
-        without it); None: zero until then."""
+    def __init__(self, model: UVMSModel, settings: ObserverSettings = ObserverSettings()):
         self.model, self.settings = model, settings
-        self._prior = None if weight is None or not np.isfinite(weight) else float(weight)
         n = model.n_joints
         self._rows = np.arange(6 + n, 9 + n) if settings.angular_weight == 0 else np.arange(6 + n, 12 + n)
         self._weights = np.ones(len(self._rows))
         self._weights[3:] = settings.angular_weight
         self._theta = np.zeros(3)  # c_x [m/s], c_y [m/s], W / WEIGHT_UNIT
         self._updates = 0  # updates since the last reset
-        self.reset()
 
     @staticmethod
     def _water(theta: np.ndarray) -> np.ndarray:
@@ -136,11 +126,14 @@ class CurrentObserver:
         current [m/s, world; vertical 0] and the extra hull weight in water [N]."""
         return self._water(self._theta)
 
+    @property
+    def updates(self) -> int:
+        """The updates since the last reset."""
+        return self._updates
+
     def reset(self) -> None:
-        """Forget the estimate (back to no extra current and the known weight, or none)."""
+        """Forget the estimate (back to no extra current and no extra weight)."""
         self._theta = np.zeros(3)
-        if self._prior is not None:
-            self._theta = self._clip(np.array([0.0, 0.0, self._prior / WEIGHT_UNIT]))
         self._updates = 0
 
     def _predict(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, known: np.ndarray,

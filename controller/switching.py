@@ -82,6 +82,7 @@ class SwitchingSettings:
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     observe_current: bool = True  # add controller.estimator's estimate of the unknown current and hull weight
     observer: ObserverSettings = field(default_factory=ObserverSettings)
+    trim_in_contact: bool = False  # in contact before the observer's first update: the task's trim's weight
     plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
 
 
@@ -431,6 +432,11 @@ class SwitchingController:
     states in any mode while every body and the tip are at least `contact_clearance` off every plane
     at both (a contact's force would read as a current or a weight), and held
     otherwise; under a latency it is never updated (it assumes one input over each interval).
+    With `trim_in_contact`, a vehicle in contact before the observer's first update (arm-deployed: on
+    the wall 0.05 s in) plans with the extra weight the task's trim check tells (Task.trim less the
+    model's own weight in water) instead of none; in free flight the observer's estimate stands, also
+    before its first update (told at the first step, Mode I's first plan pitches a heavy hull and the
+    observer's first target misreads it: experiments/trim_prior).
 
     With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
     after the measured one under the input it returned last, which acts meanwhile, in free flight
@@ -449,6 +455,7 @@ class SwitchingController:
         self.settings, self.on_solve = settings, on_solve
         self.nmpc: SwitchingNMPC | None = None
         self.observer: CurrentObserver | None = None
+        self._trim: np.ndarray | None = None  # the told extra weight as the model's vc (trim_in_contact)
         self._task: Task | None = None
         self._failed: tuple[int, ...] = ()
         self._last: tuple[np.ndarray, np.ndarray, float, bool] | None = None  # h, u, t, whether observed free
@@ -471,12 +478,10 @@ class SwitchingController:
                                                            max(m2.dt_bounds[1], self.latency))))
         self._started = False
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
-        self.observer = None
-        if self.settings.observe_current:
-            trimmed = self.settings.observer.trim and task.trim is not None
-            extra = task.trim - task.params.weight_in_water(task.scene.water.density, task.scene.water.gravity) \
-                if trimmed else None
-            self.observer = CurrentObserver(model, self.settings.observer, weight=extra)
+        self.observer = CurrentObserver(model, self.settings.observer) if self.settings.observe_current else None
+        water_of = task.scene.water
+        self._trim = None if not self.settings.trim_in_contact or task.trim is None else \
+            water(np.zeros(3), task.trim - task.params.weight_in_water(water_of.density, water_of.gravity))
 
     def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, StepInfo]:
         if self.nmpc is None or self._task is None:
@@ -490,7 +495,8 @@ class SwitchingController:
         if self.observer is not None:
             if self._last is not None and self._last[3] and free and t > self._last[2] and self.latency == 0.0:
                 self.observer.update(self._last[0], self._last[1], t - self._last[2], np.asarray(h, float), known)
-            known = known + self.observer.estimate
+            untaught = self._trim is not None and not free and not self.observer.updates
+            known = known + (self._trim if untaught else self.observer.estimate)
         self.nmpc.current = known
         if self._started and self.latency > 0.0:  # the first step's input acts at once
             ahead = self.nmpc.predict(h, self.nmpc.last_u, self.latency), t + self.latency

@@ -214,45 +214,6 @@ def test_on_the_model_itself_only_the_filter_lag_remains(model: UVMSModel, curre
         assert np.max(np.abs(np.array(estimates)[:, 3])) < WEIGHT_LAG_TOLERANCE
 
 
-# A weight told at the truth: the estimate's largest deviation from it over 5 s was 0.097 N (the weight's
-# targets carry the error of the first periods' current estimate, 0.14 m/s); about twice that. Without
-# the told weight the first updates are 10-20 N off, far outside it.
-TOLD_WEIGHT_TOLERANCE = 0.2  # N
-
-
-@pytest.mark.parametrize("told", [20.0, 15.0], ids=["told the truth", "told 5 N short"])
-def test_on_the_model_a_told_weight_is_the_estimate_until_the_observer_learns_better(model: UVMSModel,
-                                                                                      told: float) -> None:
-    """The Kane model as the plant, its hull 20 N heavier in water than the observer's model, in an
-    unknown current, station keeping yawed YAW. Told a weight (a trim check's), the observer's estimate
-    is that weight before its first update; told the truth, it stays within TOLD_WEIGHT_TOLERANCE of
-    it at every update while the current is learnt (untold, its first updates are far off); told 5 N
-    short, it forgets the told value as it would a first estimate and ends within WEIGHT_LAG_TOLERANCE
-    of the truth."""
-    p, c, weight = model.params, np.array([INJECTED, 0.08, 0.0]), 20.0
-    h0 = np.zeros(p.n_states)
-    h0[2], h0[5], h0[6:6 + p.n_joints] = -1.5, np.radians(YAW), p.arm.stowed
-
-    def weights(prior: float | None) -> np.ndarray:
-        plant, policy = ModelPlant(model, (), h0, current=water(c, weight)), station_keeper(model, h0)
-        observer, h, out = CurrentObserver(model, weight=prior), h0, []
-        np.testing.assert_array_equal(observer.estimate, water(np.zeros(3), prior or 0.0))
-        for _ in range(round(DURATION / DT)):
-            u = policy(h)
-            plant.step(u, DT)
-            out.append(observer.update(h, u, DT, plant.h, np.zeros(3)))
-            h = plant.h.copy()
-        np.testing.assert_allclose(out[-1][:3], c, rtol=0, atol=LAG_TOLERANCE)
-        return np.array(out)[:, 3]
-
-    told_weights = weights(told)
-    if told == weight:
-        assert np.max(np.abs(told_weights - weight)) < TOLD_WEIGHT_TOLERANCE
-        assert np.max(np.abs(weights(None)[:2] - weight)) > 10.0
-    else:
-        assert abs(told_weights[-1] - weight) < WEIGHT_LAG_TOLERANCE
-
-
 @pytest.mark.parametrize("time_constant", [0.3, 1.0])
 def test_on_the_model_in_its_linear_regime_the_filter_takes_the_first_target_then_lags(model: UVMSModel,
                                                                                          time_constant: float) -> None:
@@ -488,3 +449,32 @@ def test_switching_controller_weighs_a_heavier_hull_before_mode2s_contact(params
     held = np.flatnonzero(~free[:-1] & ~free[1:]) + 1  # steps whose period began and ended in contact
     assert len(held) > 0
     np.testing.assert_array_equal(est[held], est[held - 1])
+
+
+@pytest.mark.parametrize("trim_in_contact", [True, False])
+def test_switching_controller_plans_with_the_told_trim_only_in_contact_before_it_has_learnt(
+        params: UVMSParams, trim_in_contact: bool) -> None:
+    """arm-deployed (the tip on the wall 0.05 s in, before the observer's first update) with the hull
+    20 % heavier than the model's and a trim check 1 N off (`mass*1.2 trim+1.0`), 0.3 s. With
+    `trim_in_contact` every step in contact before the observer's first update plans with the extra
+    weight (k - 1) m g + 1 N (the closed form; 1e-9 N), every other step with the observer's estimate
+    (zero before its first update); without it, none of them with the trim."""
+    from controller.switching import SwitchingController, SwitchingSettings
+    from validation.closed_loop import run
+
+    steps = []
+
+    class Traced(SwitchingController):
+        def step(self, h, t):
+            untaught = not self._free(h) and not self.observer.updates
+            u, info = super().step(h, t)
+            steps.append((untaught, info.water[3], self.observer.estimate[3]))
+            return u, info
+
+    sc = replace(get("arm-deployed"), duration=0.3)
+    run(sc, controller=Traced(SwitchingSettings(trim_in_contact=trim_in_contact)), mismatch="mass*1.2 trim+1.0")
+    told = 0.2 * params.hull.mass * load_scene().water.gravity + 1.0
+    untaught = [w for u, w, _ in steps if u]
+    assert len(untaught) >= 2 and not steps[0][0]
+    for u, w, estimate in steps:
+        assert w == pytest.approx(told if u and trim_in_contact else estimate, abs=1e-9)
