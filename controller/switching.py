@@ -82,7 +82,7 @@ class SwitchingSettings:
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     observe_current: bool = True  # add controller.estimator's estimate of the unknown current and hull weight
     observer: ObserverSettings = field(default_factory=ObserverSettings)
-    trim_in_contact: bool = False  # in contact before the observer's first update: the task's trim's weight
+    trim_in_contact: bool = True  # in contact before the observer's first update: the task's trim's weight
     plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
 
 
