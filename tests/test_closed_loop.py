@@ -457,9 +457,10 @@ def test_the_controller_is_told_the_trim_checks_weight_with_its_declared_error(p
     """The task's trim is the drawn vehicle's weight in water at the start (the closed form of the
     plant's masses and volumes, MuJoCo's own measurement checked in test_plant_hydrostatics) plus the
     mismatch's declared trim error: told less the model's own it is (k - 1) m g + error for `mass*k`,
-    the error alone for `mass_inertia` (1e-9 N: the same numbers)."""
+    the error alone for `mass_inertia` (1e-9 N: the same numbers); the run's summary records it."""
     listener = _Listener()
-    run(replace(get("wall-headon"), duration=0.1), controller=listener, mismatch=spec)
+    summary = run(replace(get("wall-headon"), duration=0.1), controller=listener, mismatch=spec)
+    assert summary.mismatch["told_trim"] == listener.task.trim
     drawn, rho, g = draw(spec, 0), scene.water.density, scene.water.gravity
     k = drawn.get("mass", 1.0)
     expected = (k - 1.0) * params.hull.mass * g + drawn.get("trim", 0.0)

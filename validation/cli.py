@@ -70,7 +70,9 @@ def _print_summary(s: Summary) -> None:
              f"(max total thrust along the wall normal: {s.max_total_thrust_along_wall_normal:.0f})"),
             ("final task error [m]", f"{s.final_task_error:.3f}"),
             ("mismatch (seed)", f"{s.mismatch['spec'] or 'none'} ({s.mismatch['seed']}): "
-             + ", ".join(f"{k} {v:.3g}" for k, v in s.mismatch["values"].items())),
+             + ", ".join(f"{k} {v:.3g}" for k, v in s.mismatch["values"].items())
+             + (f"; told weight in water {s.mismatch['told_trim']:.2f} N" if s.mismatch.get("told_trim") is not None
+                else "")),
             ("fallbacks", str(s.fallbacks)),
             ("switches to Mode II", s.switches),
             ("step time median / p95 [ms]", ", ".join(f"{m}: {1e3 * v.median_s:.0f} / {1e3 * v.p95_s:.0f}"

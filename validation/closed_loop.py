@@ -349,7 +349,7 @@ def _summarize(sc: Scenario, resolved: presets.Resolved, mismatch: str, seed: in
         scenario={"name": sc.name, **sc.to_data()}, controller=resolved.name,
         controller_settings=resolved.settings_dict(),
         controller_overrides=dict(resolved.overrides),
-        mismatch={"spec": mismatch, "seed": seed, "values": drawn}, latency=latency,
+        mismatch={"spec": mismatch, "seed": seed, "values": drawn, "told_trim": task.trim}, latency=latency,
         verdict=outcome.value, reason=reason,
         modes=[m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m],
         timeline=[[s.t, s.mode] for k, s in enumerate(steps) if k == 0 or modes[k - 1] != s.mode],

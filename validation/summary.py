@@ -51,7 +51,7 @@ class Summary:
     controller: str  # preset name or package.module:Class
     controller_settings: dict | None  # the resolved settings (None: the class takes none)
     controller_overrides: dict  # the dotted overrides that made them (preset's, then --ctl)
-    mismatch: dict  # spec, seed and the drawn values
+    mismatch: dict  # spec, seed, the drawn values and the trim told to the controller [N] (told_trim)
     latency: str
     verdict: str  # validation.closed_loop.Outcome's value
     reason: str
