@@ -9,7 +9,11 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    Mode I plan shifted by one interval, and then under a fresh Mode I plan (the caller's solve,
    asked for only when the other screens fail). If every clearance at every node of a rollout
    stays above the margin (and the plan's inputs and joint angles within their bounds), that
-   rollout is a point of F: feasible, certified.
+   rollout is a point of F: feasible, certified. When the answer matters (the caller's `needed`),
+   the fresh plan continued by Mode I's SQP with a line search (the caller's `refine`, up to
+   `CertificateSettings.refine_iterations`), stopped at its first iterate that passes that test:
+   Mode I's real-time plans near a wall violate its dynamics by tens of newtons, so their
+   re-simulation rarely passes, while a few globalized iterations usually do.
 2. Otherwise solve the minimum-violation problem (Mode I with an L1 slack on every clearance
    constraint, cost sum(slack)) from the fresh Mode I plan, else from the braking rollout. Its
    optimum is 0 exactly when F is non-empty, so F is declared empty when the minimum violation
@@ -47,6 +51,7 @@ class Method(Enum):
     BRAKING_ROLLOUT = "braking rollout"
     PREVIOUS_PLAN = "previous plan, shifted"
     MODE_I_PLAN = "Mode I's plan"
+    REFINED_PLAN = "Mode I's plan, continued by the SQP with a line search"
     MINIMUM_VIOLATION = "minimum violation"
     SCREENS = "screens only"
 
@@ -58,6 +63,7 @@ class CertificateSettings:
     tolerance: float = 1e-3  # m: F counts as empty above this summed clearance violation
     max_iter: int = 300  # IPOPT's cap (an iterate feasible at it counts with its slack sum)
     mu_init: float = 0.1  # IPOPT's initial barrier (a cold start from a rollout: a large one works best)
+    refine_iterations: int = 8  # the fresh plan's further SQP iterations before the problem (0: none)
 
 
 @dataclass(frozen=True)
@@ -134,13 +140,17 @@ class FeasibilityTest:
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
                  previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None,
                  fresh: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None,
-                 needed: Callable[[Certificate], bool] | None = None) -> Certificate:
+                 needed: Callable[[Certificate], bool] | None = None,
+                 refine: Callable[[Certificate], tuple[np.ndarray, np.ndarray] | None] | None = None
+                 ) -> Certificate:
         """The verdict for the measured state h0. `plan`: the previous Mode I plan shifted by one
         interval, as (states re-simulated from h0, inputs): the second screen. `fresh`: called
         when the screens before it fail, returns a new Mode I plan in the same form (or None): the
         third. `needed`: called with the screens' UNDECIDED certificate before the minimum-violation
         problem; when it returns False (the caller's decision does not depend on the answer) the
-        problem is not solved and that certificate is returned."""
+        problem is not solved and that certificate is returned. `refine`: called next with that
+        certificate, returns a further plan in the same form (the fresh one continued) or None:
+        the fourth screen."""
         t0 = time.perf_counter()
         hs, us = self.braking_rollout(h0, current)
         margin = self.min_clearance(hs) - self.settings.distance_margin
@@ -159,6 +169,9 @@ class FeasibilityTest:
                                 hs, us)
         if needed is not None and not needed(undecided):
             return undecided
+        refined = refine(undecided) if refine is not None else None
+        if refined is not None and self.plan_is_feasible(*refined):
+            return found(Method.REFINED_PLAN)
         start = candidate if candidate is not None else (hs, us)
         sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(*start))
         return self.judge(sol, margin, time.perf_counter() - t0, hs, us)

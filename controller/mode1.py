@@ -246,16 +246,18 @@ class ModeIOCP:
 
     def solve(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
               previous: OCPSolution | None = None, guess: np.ndarray | None = None,
-              sqp: SQPSettings | None = None) -> OCPSolution:
+              sqp: SQPSettings | None = None, stop: Callable[[np.ndarray], bool] | None = None) -> OCPSolution:
         """Solve from state h0 towards h_ref. Primal start: `guess` (e.g. `guess_from_rollout`) when
         given, else `previous` shifted by one stage, else h0 held; dual start: `previous` shifted.
-        `sqp` replaces the SQP's iteration settings for this solve (Solver.SQP only)."""
+        `sqp` replaces the SQP's iteration settings for this solve, and `stop(u)`, given the inputs
+        (N, nu) after each SQP iteration, ends it as STOPPED when True (Solver.SQP only)."""
         w0, lam_g, lam_x = self.initial_guess(np.asarray(h0, float), previous)
         if guess is not None:
             w0 = guess
         P = np.concatenate([h0, h_ref, water(current)])
         if self.sqp is not None:
-            res = self.sqp.solve(w0, P, self.lbw, self.ubw, self.lbg[self.ns:], self.ubg[self.ns:], sqp)
+            inputs = None if stop is None else (lambda w: stop(self._inputs(w)))
+            res = self.sqp.solve(w0, P, self.lbw, self.ubw, self.lbg[self.ns:], self.ubg[self.ns:], sqp, inputs)
             return self._solution(res.w, res.status, res.solve_time, res.iterations, res.cost,
                                   np.zeros(len(self.lbg)), np.zeros(len(w0)), res.violation)
         args = {"x0": w0, "p": P, "lbx": self.lbw, "ubx": self.ubw, "lbg": self.lbg, "ubg": self.ubg}
@@ -275,13 +277,18 @@ class ModeIOCP:
         return self._solution(np.asarray(r["x"]).ravel(), status, elapsed, int(st["iter_count"]),
                               float(r["f"]), np.asarray(r["lam_g"]).ravel(), np.asarray(r["lam_x"]).ravel(), violation)
 
+    def _inputs(self, w: np.ndarray) -> np.ndarray:
+        """The inputs (N, nu) in a primal vector."""
+        N, nz, ns, nu = self.settings.horizon, self._nz, self.ns, self.nu
+        return np.array([w[k * nz + ns:k * nz + ns + nu] for k in range(N)])
+
     def _solution(self, w: np.ndarray, status: SolverStatus, elapsed: float, iterations: int, cost: float,
                   lam_g: np.ndarray, lam_x: np.ndarray, violation: float) -> OCPSolution:
         N, nz, ns, nu = self.settings.horizon, self._nz, self.ns, self.nu
         return OCPSolution(
             status=status,
             h=np.array([w[k * nz:k * nz + ns] for k in range(N + 1)]),
-            u=np.array([w[k * nz + ns:k * nz + ns + nu] for k in range(N)]),
+            u=self._inputs(w),
             a=np.array([w[k * nz + ns + nu:k * nz + ns + nu + self.nv] for k in range(N)]),
             slack=np.array([w[k * nz + ns + nu + self.nv:(k + 1) * nz] for k in range(N)]),
             solve_time=elapsed, iterations=iterations, cost=cost, w=w, lam_g=lam_g, lam_x=lam_x, violation=violation)

@@ -13,9 +13,17 @@ the linearization, nothing more is dropped). The Hessian is the cost's own (Gaus
 constraints' curvature is left out), so with Mode I's quadratic cost it is constant and always
 positive semidefinite; a fixed point of the iteration is a KKT point of the NLP.
 
-Globalization: none, full steps; the warm start from the shifted previous plan keeps them in the
-region of full-step convergence. Converged (SUCCESS): the step's largest entry below `step_tol` and
-the constraint violation below `violation_tol`. At `max_iter` the iterate is FEASIBLE when its
+Globalization: by default none, full steps; the warm start from the shifted previous plan keeps
+them in the region of full-step convergence far from the obstacles. With `line_search` each step
+is cut by Armijo backtracking on the L1 merit function f + mu |c|_1 (mu at least 1.5 times the
+QP's largest multiplier, and large enough that the step descends: Nocedal and Wright, eq. 18.36):
+near a wall, where the clearance rows bend within one step, full steps leave the dynamics violated
+by tens of newtons after 16 iterations, cut ones reach a re-simulated feasible plan in 1 to 5
+(docs/decisions.md, 'The fresh plan continued before the minimum-violation problem'). A caller's
+`stop` test, given the iterate after each iteration, ends the solve as STOPPED.
+
+Converged (SUCCESS): the step's largest entry below `step_tol` and the constraint violation below
+`violation_tol`. At `max_iter` the iterate is FEASIBLE when its
 violation is below FEASIBLE_VIOLATION, else REAL_TIME when `real_time` is set (with max_iter = 1 the
 real-time iteration of Diehl, Bock and Schloeder 2005: one QP per control period, converging over
 the periods), else MAX_ITER. A failed QP is FAILED; the caller falls back (controller.switching).
@@ -24,6 +32,7 @@ the periods), else MAX_ITER. A failed QP is FAILED; the caller falls back (contr
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 
@@ -57,6 +66,11 @@ class SQPSettings:
     qp_mode: QPMode = QPMode.ROBUST
     qp_tol: float = 1e-6  # HPIPM's tolerances (ROBUST at 1e-8 and SPEED_ABS at 1e-9 stall at the iteration cap)
     qp_mu0: float | None = 0.1  # HPIPM's initial barrier parameter (None: the mode's own; ROBUST's is 100)
+    line_search: bool = False  # Armijo backtracking on the L1 merit function (False: full steps)
+
+
+ARMIJO = 1e-4  # the merit's sufficient decrease, as a fraction of its directional derivative
+SHORTEST = 1 / 64  # the shortest step fraction tried; taken when no longer one decreases the merit
 
 
 @dataclass(frozen=True)
@@ -168,6 +182,28 @@ class StageSQP:
         self._keep = np.concatenate([np.r_[k * nz:k * nz + nxu] for k in range(N)] + [np.r_[N * nz:N * nz + nx]])
 
     # ------------------------------------------------------------------------------------------
+    def _step_length(self, w: np.ndarray, step: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray,
+                     grad: np.ndarray, lam_a: np.ndarray, mu: float) -> tuple[float, float]:
+        """The fraction of `step` that Armijo backtracking (halving) accepts on the L1 merit
+        f + mu |c|_1, and the penalty mu used (never lowered across iterations). grad: the stage
+        costs' gradients (N, ns) at w; lam_a: the QP's row multipliers."""
+        N = self.pr.horizon
+        ds = step[self._stage_idx].reshape(N, self.ns)
+        slope, curvature = float(np.sum(grad * ds)), float(np.sum(self._h * ds * ds))
+        over, cost = self._violations(w, p, lbg, ubg)
+        c1 = float(over.sum())
+        mu = max(mu, 1.5 * float(np.abs(lam_a).max(initial=0.0)))
+        if c1 > 0.0:
+            mu = max(mu, (slope + 0.5 * curvature) / (0.5 * c1))
+        merit, decrease = cost + mu * c1, slope - mu * c1
+        alpha = 1.0
+        while alpha > SHORTEST:
+            over, cost = self._violations(w + alpha * step, p, lbg, ubg)
+            if cost + mu * float(over.sum()) <= merit + ARMIJO * alpha * decrease:
+                break
+            alpha /= 2
+        return alpha, mu
+
     def _stages(self, w: np.ndarray) -> np.ndarray:
         """(ns, N) in column-major nonzero order: the stage vectors s_k one after the other."""
         return w[self._stage_idx]
@@ -203,11 +239,12 @@ class StageSQP:
         return T, Hq, gq, J[:, nd:, :nxu] + Jc_dep @ W, c[:, nd:] + (Jc_dep @ t[:, :, None])[:, :, 0]
 
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray, lbg: np.ndarray,
-              ubg: np.ndarray, settings: SQPSettings | None = None) -> SQPResult:
+              ubg: np.ndarray, settings: SQPSettings | None = None,
+              stop: Callable[[np.ndarray], bool] | None = None) -> SQPResult:
         """From w0 with parameters p; lbw/ubw bound w, lbg/ubg bound the stage constraints (N nc,
         stage-major; the dynamics rows must be 0). `settings` replaces the iteration settings
-        (max_iter, real_time, step_tol, violation_tol) for this solve; the QP's are
-        fixed at construction."""
+        (max_iter, real_time, step_tol, violation_tol, line_search) for this solve; the QP's are
+        fixed at construction. `stop(w)`, after each iteration: True ends the solve (STOPPED)."""
         t0 = time.perf_counter()
         pr, s = self.pr, settings or self.settings
         N, nx, nv, nd, ns, ng = pr.horizon, pr.nx, pr.nv, self.nd, self.ns, self.ng
@@ -222,7 +259,7 @@ class StageSQP:
                 raise ValueError(f"{self.qp.name()}: the cost's Hessian must be diagonal and free of the algebraic "
                                  "variables; allowed: sum_i h_i s_i^2 / 2 + linear terms")
             self._h = h
-        status, qp_iters, iterations = SolverStatus.MAX_ITER, 0, 0
+        status, qp_iters, iterations, mu = SolverStatus.MAX_ITER, 0, 0, 0.0
         n_dyn = N * nx * nxu
         for iterations in range(1, s.max_iter + 1):  # noqa: B007 (the count is returned)
             out = self._lin(self._stages(w), p)
@@ -241,8 +278,8 @@ class StageSQP:
             g = np.concatenate([gq.ravel(), np.zeros(nx)])
             lbx, ubx = (lbw - w)[self._keep], (ubw - w)[self._keep]
             lbx[:nx] = ubx[:nx] = p[:nx] - w[:nx]
-            x, _, _ = self._qp(self._h_vals[self._h_src], self._a_vals[self._a_src], g, lba.ravel(),
-                                uba.ravel(), lbx, ubx)
+            x, lam_a, _ = self._qp(self._h_vals[self._h_src], self._a_vals[self._a_src], g, lba.ravel(),
+                                   uba.ravel(), lbx, ubx)
             st = self.qp.stats(1)  # (see __init__)
             qp_iters += int(st.get("iter_count", 0))
             if not st["success"]:
@@ -253,11 +290,19 @@ class StageSQP:
             step[self._keep] = d
             dxu = d[:N * nxu].reshape(N, nxu)
             step[:N * nz].reshape(N, nz)[:, nxu:] = (W[:, nx:] @ dxu[:, :, None])[:, :, 0] + t[:, nx:]
-            w = w + step
+            alpha = 1.0
+            if s.line_search:
+                alpha, mu = self._step_length(w, step, p, lbg, ubg, grad, lam_a, mu)
+            w = w + alpha * step
             if np.abs(step).max() < s.step_tol:  # (the full step: a short one does not mean converged)
                 status = SolverStatus.SUCCESS
                 break
+            if stop is not None and stop(w):
+                status = SolverStatus.STOPPED
+                break
         violation, cost = self.evaluate(w, p, lbg, ubg)
+        if status is SolverStatus.STOPPED:
+            return SQPResult(status, w, iterations, qp_iters, violation, cost, time.perf_counter() - t0)
         if status is SolverStatus.SUCCESS and violation > s.violation_tol:
             status = SolverStatus.MAX_ITER
         if status is SolverStatus.MAX_ITER and violation < FEASIBLE_VIOLATION:

@@ -286,6 +286,30 @@ class SwitchingNMPC:
             fresh["h"] = self._resimulate(h, sol.u, s.dt)
             return fresh["h"], sol.u
 
+        def refine(screened: Certificate) -> tuple[np.ndarray, np.ndarray] | None:
+            """The fresh plan (when its solve failed: the braking rollout) continued by the SQP with
+            a line search, stopped at its first iterate whose inputs re-simulate to a point of F (the
+            certificate's fourth screen): Mode I's plan."""
+            n = self.settings.certificate.refine_iterations
+            if n < 1 or ocp.sqp is None:
+                return None
+            usable = "sol" in fresh and fresh["sol"].status.usable
+            start = fresh["sol"].w if usable else ocp.guess_from_rollout(screened.rollout, screened.rollout_inputs)
+            witness: dict = {}
+
+            def passes(u: np.ndarray) -> bool:
+                witness["h"] = self.feasibility.resimulated_if_feasible(h, u, self.current)
+                return witness["h"] is not None
+
+            sol = ocp.solve(h, ref, self.current, guess=start, stop=passes,
+                            sqp=replace(s.sqp, max_iter=n, line_search=True, real_time=False))
+            if sol.status is not SolverStatus.STOPPED:
+                return None
+            before = fresh["sol"].solve_time if "sol" in fresh else 0.0
+            fresh["sol"] = replace(sol, solve_time=sol.solve_time + before)
+            fresh["h"] = witness["h"]
+            return witness["h"], sol.u
+
         deadline: bool | None = None  # the deploy deadline, when it was asked before the minimum-violation problem
 
         def needed(screened: Certificate) -> bool:
@@ -294,7 +318,7 @@ class SwitchingNMPC:
             deadline = self._deadline(h, screened)
             return not deadline
 
-        cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now, needed=needed) \
+        cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now, needed=needed, refine=refine) \
             if self.settings.switching else None
         if cert is not None and cert.verdict is Verdict.INFEASIBLE:
             self._switch = SwitchReason.F_EMPTY if np.isfinite(cert.violation) else SwitchReason.SOLVER_FAILURE
