@@ -31,7 +31,7 @@ BUDGETS = (0.02, 0.05, 0.1)  # s
 # name: dotted overrides of the default preset
 VARIANTS: dict[str, dict] = {
     "default": {},
-    "Mode II cold (no warm start)": {"mode2.warm_start": False},
+    "certificate without the continued plan": {"certificate.refine_iterations": 0},
 }
 
 

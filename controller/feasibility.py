@@ -137,6 +137,25 @@ class FeasibilityTest:
         hs = simulate(self.model, h0, us, self.settings.dt, current=current)
         return hs if self.plan_is_feasible(hs, us) else None
 
+    def continued(self, ocp: ModeIOCP, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None,
+                  start: np.ndarray) -> tuple[np.ndarray, OCPSolution] | None:
+        """Mode I's plan from the primal start `start` (ocp's layout) continued by ocp's SQP with a
+        line search for up to `CertificateSettings.refine_iterations`, stopped at its first iterate
+        whose inputs re-simulate from h0 to a point of F: (those states (N+1, ns), the STOPPED
+        solution), else None (also when ocp is not solved by the SQP)."""
+        n = self.certificate.refine_iterations
+        if n < 1 or ocp.sqp is None:
+            return None
+        witness: dict = {}
+
+        def passes(u: np.ndarray) -> bool:
+            witness["h"] = self.resimulated_if_feasible(h0, u, current)
+            return witness["h"] is not None
+
+        sol = ocp.solve(h0, h_ref, current, guess=start, stop=passes,
+                        sqp=replace(ocp.settings.sqp, max_iter=n, line_search=True, real_time=False))
+        return (witness["h"], sol) if sol.status is SolverStatus.STOPPED else None
+
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
                  previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None,
                  fresh: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None,

@@ -288,27 +288,15 @@ class SwitchingNMPC:
 
         def refine(screened: Certificate) -> tuple[np.ndarray, np.ndarray] | None:
             """The fresh plan (when its solve failed: the braking rollout) continued by the SQP with
-            a line search, stopped at its first iterate whose inputs re-simulate to a point of F (the
-            certificate's fourth screen): Mode I's plan."""
-            n = self.settings.certificate.refine_iterations
-            if n < 1 or ocp.sqp is None:
-                return None
+            a line search to a witness (the certificate's fourth screen), then Mode I's plan."""
             usable = "sol" in fresh and fresh["sol"].status.usable
             start = fresh["sol"].w if usable else ocp.guess_from_rollout(screened.rollout, screened.rollout_inputs)
-            witness: dict = {}
-
-            def passes(u: np.ndarray) -> bool:
-                witness["h"] = self.feasibility.resimulated_if_feasible(h, u, self.current)
-                return witness["h"] is not None
-
-            sol = ocp.solve(h, ref, self.current, guess=start, stop=passes,
-                            sqp=replace(s.sqp, max_iter=n, line_search=True, real_time=False))
-            if sol.status is not SolverStatus.STOPPED:
+            found = self.feasibility.continued(ocp, h, ref, self.current, start)
+            if found is None:
                 return None
             before = fresh["sol"].solve_time if "sol" in fresh else 0.0
-            fresh["sol"] = replace(sol, solve_time=sol.solve_time + before)
-            fresh["h"] = witness["h"]
-            return witness["h"], sol.u
+            fresh["h"], fresh["sol"] = found[0], replace(found[1], solve_time=found[1].solve_time + before)
+            return fresh["h"], fresh["sol"].u
 
         deadline: bool | None = None  # the deploy deadline, when it was asked before the minimum-violation problem
 

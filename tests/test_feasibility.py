@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controller.feasibility import Certificate, FeasibilityTest, Method, Verdict
-from controller.mode1 import PITCH, ModeISettings
+from controller.feasibility import Certificate, CertificateSettings, FeasibilityTest, Method, Verdict
+from controller.mode1 import PITCH, ModeIOCP, ModeISettings
 from controller.model import UVMSModel
 from controller.rollouts import simulate
 from controller.transcription import SolverStatus
@@ -209,3 +209,34 @@ def test_witness_from_mode_one_plan_certifies_where_every_screen_fails(params) -
     assert not test.plan_is_feasible(rec["fresh_h"], rec["fresh_u"])
     c = certify_call(test, rec, fresh=True)
     assert_certified(test, rec["h0"], c, rec["current"])
+
+
+@pytest.mark.slow
+def test_continued_plan_certifies_where_every_screen_fails(params) -> None:
+    """The same recorded wall-oblique call: Mode I's fresh plan, its states re-simulated (a
+    consistent start that puts a body 24 cm through the wall; the closed loop continues the SQP's
+    own iterate instead), continued by Mode I's SQP with the line search for up to 16 iterations,
+    stops at an iterate whose inputs are a point of F (11 iterations on this machine), and the
+    certificate given it says so (REFINED_PLAN) without the minimum-violation problem. Oracle: those
+    inputs re-simulated by RK4 at 20 substeps an interval pass plan_is_feasible, and the plan
+    carried is its inputs' own 4-substep re-simulation from h0."""
+    from validation import mismatch, scenarios
+    from validation.closed_loop import build_plant
+
+    controller_params, scene, _, _ = build_plant(scenarios.get("wall-oblique"), mismatch.DEFAULT, 1)
+    model = UVMSModel(controller_params, scene.water)
+    test = FeasibilityTest(model, scene.planes, certificate=CertificateSettings(refine_iterations=16))
+    ocp = ModeIOCP(model, scene.planes)
+    rec = recorded("wall_oblique_fresh_plan_call.npz")
+    test.limit_inputs(rec["input_lo"], rec["input_hi"])
+    ocp.limit_inputs(rec["input_lo"], rec["input_hi"])
+    h0, current = rec["h0"], rec["current"]
+    assert not test.plan_is_feasible(rec["fresh_h"], rec["fresh_u"])
+    found = test.continued(ocp, h0, rec["h_ref"], current, ocp.guess_from_rollout(rec["fresh_h"], rec["fresh_u"]))
+    assert found is not None
+    hs, sol = found
+    assert sol.status is SolverStatus.STOPPED and sol.iterations <= 16
+    np.testing.assert_array_equal(hs, simulate(model, h0, sol.u, test.settings.dt, current=current))
+    assert test.plan_is_feasible(simulate(model, h0, sol.u, test.settings.dt, substeps=20, current=current), sol.u)
+    c = test(h0, rec["h_ref"], current, fresh=lambda: (rec["fresh_h"], rec["fresh_u"]), refine=lambda _: (hs, sol.u))
+    assert (c.verdict, c.method, c.solution) == (Verdict.FEASIBLE, Method.REFINED_PLAN, None)

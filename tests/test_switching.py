@@ -212,3 +212,41 @@ def test_a_failed_solve_returns_and_reports_the_shifted_plan(params, scene) -> N
     assert info.fallback is Fallback.SHIFTED_PLAN
     np.testing.assert_array_equal(u, np.clip(first.u_pred[1], *params.input_bounds()))
     np.testing.assert_array_equal(info.u_pred, first.u_pred[1:])
+
+
+@pytest.mark.slow
+def test_a_continued_plan_is_mode_ones_plan_and_a_point_of_F() -> None:
+    """A certificate call recorded in a MuJoCo closed loop (wall-oblique, mismatch seed 1, the
+    horizontal thrusters dead, hull near the wall): the braking rollout fails and Mode I's
+    real-time plan from the held state is no point of F, so the step continues that plan by the SQP
+    with the line search (up to 16 iterations here, for margin over the 2-5 it takes on this
+    machine) and certifies F with it (REFINED_PLAN), without the minimum-violation problem. That
+    plan is the step's: oracle, its inputs re-simulated from the state by RK4 at 20 substeps an
+    interval keep every body the margin off the walls within the bounds (plan_is_feasible), the
+    plan's states are its inputs' own 4-substep re-simulation, and the input returned is its first
+    (clipped to the bounds)."""
+    from pathlib import Path
+
+    from controller.feasibility import CertificateSettings, Method, Verdict
+    from controller.rollouts import simulate
+    from validation import mismatch, scenarios
+    from validation.closed_loop import build_plant
+
+    params, scene, _, _ = build_plant(scenarios.get("wall-oblique"), mismatch.DEFAULT, 1)
+    model = UVMSModel(params, scene.water)
+    rec = dict(np.load(Path(__file__).parent / "data" / "wall_oblique_certificate_call.npz"))
+    failed = tuple(int(i) for i in np.flatnonzero((rec["input_lo"] == 0) & (rec["input_hi"] == 0)))
+    settings = SwitchingSettings(failed_thrusters=failed, current=tuple(rec["current"]),
+                                 certificate=CertificateSettings(refine_iterations=16))
+    ctl = SwitchingNMPC(model, scene.planes, rec["h_ref"], settings)
+    h0 = rec["h0"]
+    assert not ctl.feasibility.plan_is_feasible(*ctl.feasibility.braking_rollout(h0, ctl.current))
+    u, info = ctl.step(h0, 0.0)
+    assert (info.mode, info.certificate.method, info.certificate.verdict) == (Mode.I, Method.REFINED_PLAN,
+                                                                            Verdict.FEASIBLE)
+    assert info.status is SolverStatus.STOPPED and info.fallback is Fallback.NONE
+    dt, current = settings.mode1.dt, ctl.current
+    np.testing.assert_array_equal(info.h_pred, simulate(model, h0, info.u_pred, dt, current=current))
+    assert ctl.feasibility.plan_is_feasible(simulate(model, h0, info.u_pred, dt, substeps=20, current=current),
+                                            info.u_pred)
+    np.testing.assert_array_equal(u, np.clip(info.u_pred[0], ctl.lo, ctl.hi))  # (the QP's 1e-16 on dead thrusters)
