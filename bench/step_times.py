@@ -32,6 +32,7 @@ BUDGETS = (0.02, 0.05, 0.1)  # s
 VARIANTS: dict[str, dict] = {
     "default": {},
     "certificate without the continued plan": {"certificate.refine_iterations": 0},
+    "certificate's IPOPT capped at 300": {"certificate.max_iter": 300},
 }
 
 

@@ -61,7 +61,7 @@ class CertificateSettings:
     """The minimum-violation problem's settings."""
 
     tolerance: float = 1e-3  # m: F counts as empty above this summed clearance violation
-    max_iter: int = 300  # IPOPT's cap (an iterate feasible at it counts with its slack sum)
+    max_iter: int = 100  # IPOPT's cap (an iterate feasible at it counts with its slack sum)
     mu_init: float = 0.1  # IPOPT's initial barrier (a cold start from a rollout: a large one works best)
     refine_iterations: int = 8  # the fresh plan's further SQP iterations before the problem (0: none)
 
