@@ -7,8 +7,9 @@ over dt (controller.transcription), dt_min <= dt <= dt_max, input and joint boun
 controller.transcription.clearances (the end-effector may touch the contact plane only) and, at the
 last node, the tip on the contact plane (eq. EE_Wall_Dist_Constraint). Objective (eq. Obj2):
 1/(d_0,N + eps) + w |V_ee,N| with the hull's distance d_0 and the end-effector's velocity at the last
-node, plus a regularization of the inputs (1e-7 /N^2) and of the angular and joint rates
-(1e-2 s^2/rad^2), which the paper's objective leaves free at most stages.
+node (|V_ee| smoothed over 0.1 m/s: below that speed the term is nearly quadratic), plus a
+regularization of the inputs (1e-7 /N^2) and of the angular and joint rates (1e-2 s^2/rad^2), which
+the paper's objective leaves free at most stages.
 
 Not in the paper, the impact (`impact_fraction`): J_II also pays `impact_weight` times the tip's
 approach speed at the last node beyond the speed at which controller.impact's law predicts a peak
@@ -65,7 +66,9 @@ class ModeIISettings:
     dt_bounds: tuple[float, float] = (0.025, 0.05)  # s (dt_max = dt_nom: Algorithm 1 then shortens N_p every step)
     eps: float = 0.05  # m, J_II's epsilon
     ee_speed_weight: float = 2.0  # s/m, J_II's w
-    ee_speed_smoothing: float = 0.02  # m/s: |V_ee| taken as sqrt(|V_ee|^2 + this^2)
+    # m/s: |V_ee| taken as sqrt(|V_ee|^2 + this^2). At 0.02 the term's curvature at a slow tip (w / 0.02 =
+    # 100 s^2/m^2) left IPOPT at its cap in 618 of thrusters-dead's 2147 solves (experiments/mode2_speed_smoothing)
+    ee_speed_smoothing: float = 0.1
     input_weight: float = 1e-7  # 1/N^2 regularization
     rate_weight: float = 1e-2  # s^2/rad^2, on the hull's angular and the joints' rates (no thrashing)
     distance_margin: float = 0.005  # m, bodies' clearance (the paper: >= 0)
