@@ -31,8 +31,7 @@ BUDGETS = (0.02, 0.05, 0.1)  # s
 # name: dotted overrides of the default preset
 VARIANTS: dict[str, dict] = {
     "default": {},
-    "certificate without the continued plan": {"certificate.refine_iterations": 0},
-    "certificate's IPOPT capped at 300": {"certificate.max_iter": 300},
+    "Mode II's tip-speed term smoothed over 0.02 m/s": {"mode2.ee_speed_smoothing": 0.02},
 }
 
 
