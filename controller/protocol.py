@@ -5,9 +5,16 @@ A controller is any object with
     reset(task: Task) -> None                     once, before the run: what it is told
     step(h: np.ndarray, t: float) -> (u, StepInfo) every control period
 
+and, optionally,
+
+    sense(wrench: np.ndarray) -> None             before each step but the first
+
 `h` is the measured state in the paper's layout (controller.model.UVMSModel: position, ZYX Euler
 angles, joint angles | body-frame velocities, joint rates), `t` the simulated time [s]; `u` the
-thruster forces [N] and joint torques [N m] to hold for `StepInfo.dt` seconds. A class may declare
+thruster forces [N] and joint torques [N m] to hold for `StepInfo.dt` seconds. `wrench` is what a
+tared force/torque sensor between the last joint and the arm's last link read, averaged over the
+period since the previous step: the contact force on that link and its tip [N] and its torque about
+the end-effector point [N m], world frame (as the model's contact wrench Fw with Rw = I). A class may declare
 `settings_type`, a frozen dataclass: the testbed then builds it as `Class(settings)` with the
 preset's and the command line's dotted overrides applied (validation.presets), else as `Class()`.
 The switching NMPC (controller.switching.SwitchingController), its Mode-I-only baseline and the

@@ -63,6 +63,43 @@ def test_arm_contact_force_matches_statics(params, scene, force, friction) -> No
     np.testing.assert_allclose(predicted, F, atol=0.05 * np.linalg.norm(F))  # the servo barely helps
 
 
+def test_wrist_sensor_reads_the_contact_wrench_about_the_ee_point(params, scene) -> None:
+    """The arm pushes a plane with friction as above (a tangential load inside the cone, held 1 s).
+    The wrist sensor's period mean (PlantReport.wrist_impulse / period) against statics: its force
+    is the statics force F = -pinv(J^T) tau from the applied torques within 5% of |F| (the same
+    room as above: soft contact, servo residue), and its torque about the EE point is r x F, r from
+    the tip sphere's centre to its bottom, where it touches, within 5% of r_t |F| (the contact point
+    of a soft contact sinks a fraction of a mm into the plane; a wrong lever or sign is off by
+    100% or more). And MuJoCo's own per-body external wrench (cfrc_ext, from mj_rnePostConstraint)
+    of the last link, moved to the EE point, equals the sensor's instantaneous reading to 1e-9."""
+    F = np.array([3.0, -2.0, 15.0])
+    plant, JT = arm_pressing(params, scene, F, 0.5)
+    m, d = plant.model, plant.data
+    nt, nj = params.n_thrusters, params.n_joints
+    q0, tau_ff = params.arm.home.copy(), -JT @ F
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    kp, kd = (2 * np.pi * 5) ** 2 * np.diag(M), 2 * (2 * np.pi * 5) * np.diag(M)
+    dt = m.opt.timestep
+    for _ in range(int(1.0 / dt)):
+        q, qd = plant.state()[6:6 + nj], plant.state()[12 + nj:]
+        r = plant.step(np.concatenate([np.zeros(nt), tau_ff + kp * (q0 - q) - kd * qd]), dt)
+    period = 10 * dt
+    r = plant.step(r.u_applied, period)
+    mean = r.wrist_impulse / period
+    predicted = -np.linalg.pinv(JT) @ r.u_applied[nt:]
+    lever = np.array([0.0, 0.0, -params.arm.tip_radius])
+    np.testing.assert_allclose(mean[:3], predicted, atol=0.05 * np.linalg.norm(F))
+    np.testing.assert_allclose(mean[3:], np.cross(lever, predicted),
+                               atol=0.05 * params.arm.tip_radius * np.linalg.norm(F))
+    mujoco.mj_rnePostConstraint(m, d)
+    last = m.body(params.arm.links[-1].name).id
+    torque_c, force = d.cfrc_ext[last, :3], d.cfrc_ext[last, 3:]
+    centre = d.subtree_com[m.body_rootid[last]]
+    about_ee = torque_c + np.cross(centre - d.site_xpos[m.site(EE_SITE).id], force)
+    np.testing.assert_allclose(plant.wrist_wrench(), np.concatenate([force, about_ee]), rtol=0, atol=1e-9)
+
+
 def test_resting_hull_presses_with_its_net_weight(hull_only, scene) -> None:
     """A slightly heavy hull resting on the seafloor: the contact force on it is +z with magnitude
     (m - rho V) g within 1% (static equilibrium; the fluid forces vanish at rest)."""

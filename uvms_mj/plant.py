@@ -77,6 +77,7 @@ class PlantReport:
     contacts: tuple[ContactReport, ...]  # bodies touching a plane during the period
     ee_wrench: np.ndarray  # (6,) contact force [N] and torque about the EE point [N m], world, at t
     ee_impulse: np.ndarray  # (3,) N s, EE contact force integrated over the period
+    wrist_impulse: np.ndarray  # (6,) N s, N m s: `wrist_wrench` integrated over the period
     distances: np.ndarray  # (n_geoms, n_planes) m, true signed distance of each geom to each plane
     added_mass_failures: int = 0  # physics steps of the period whose added-mass solve failed
 
@@ -108,6 +109,8 @@ class Plant:
         self._has_ext = False
         self._tip = m.geom(TIP_GEOM).id if params.n_joints else -1
         self._ee_site = m.site(EE_SITE).id if params.n_joints else -1
+        last = m.geom_bodyid[self._tip] if params.n_joints else -1
+        self._last_link = {g for g in range(m.ngeom) if m.geom_bodyid[g] == last} if params.n_joints else set()
         plane_ids = [m.geom(f"plane_{p.name}").id for p in scene.planes]
         self.plane_names = tuple(p.name for p in scene.planes)
         self._plane_index = {g: i for i, g in enumerate(plane_ids)}
@@ -192,19 +195,23 @@ class Plant:
         u_cmd = np.clip(u, self._u_lo, self._u_hi)
         clipped = u_cmd != u
         acc: dict[tuple[int, int], list] = {}
-        ee_imp = np.zeros(3)
+        ee_imp, wrist_imp = np.zeros(3), np.zeros(6)
         dt = self.model.opt.timestep
         failures0 = self.added_mass.failures
         for _ in range(n):
             self._physics_step(u_cmd)
-            for key, f_world, _pos in self._contacts():
+            for key, f_world, pos in self._contacts():
                 rec = acc.setdefault(key, [np.zeros(3), 0.0])
                 rec[0] += f_world * dt
                 rec[1] = max(rec[1], float(f_world @ self.scene.planes[key[1]].normal))
-                if self._vehicle_geoms[key[0]] == self._tip:
+                geom = self._vehicle_geoms[key[0]]
+                if geom == self._tip:
                     ee_imp += f_world * dt
+                if geom in self._last_link:
+                    wrist_imp[:3] += f_world * dt
+                    wrist_imp[3:] += _cross(pos - self.data.site_xpos[self._ee_site], f_world) * dt
         self._raise_on_warnings()
-        return self._report(clipped, acc, ee_imp, self.added_mass.failures - failures0)
+        return self._report(clipped, acc, ee_imp, wrist_imp, self.added_mass.failures - failures0)
 
     def acceleration(self, u: np.ndarray) -> np.ndarray:
         """The paper's nu_dot [m/s^2, rad/s^2] at the current state under u (clipped, faults
@@ -290,6 +297,20 @@ class Plant:
                 w[3:] += _cross(pos - p_ee, f)
         return w
 
+    def wrist_wrench(self) -> np.ndarray:
+        """What a force/torque sensor between the last joint and the arm's last link reads once
+        tared (its link's own weight, buoyancy, inertia and fluid load taken out): the contact
+        wrench on that link and its tip, force [N] and torque about the EE point [N m], world."""
+        w = np.zeros(6)
+        if self._tip < 0:
+            return w
+        p_ee = self.data.site_xpos[self._ee_site]
+        for (veh, _plane), f, pos in self._contacts():
+            if self._vehicle_geoms[veh] in self._last_link:
+                w[:3] += f
+                w[3:] += _cross(pos - p_ee, f)
+        return w
+
     def signed_distances(self) -> np.ndarray:
         """True signed distance [m] of every vehicle geom (rows) to every plane (columns)."""
         m, d = self.model, self.data
@@ -303,7 +324,8 @@ class Plant:
         """Thruster forces [N] and joint torques [N m] that MuJoCo is applying now."""
         return self.data.actuator_force.copy()
 
-    def _report(self, clipped: np.ndarray, acc: dict, ee_imp: np.ndarray, failures: int) -> PlantReport:
+    def _report(self, clipped: np.ndarray, acc: dict, ee_imp: np.ndarray, wrist_imp: np.ndarray,
+                failures: int) -> PlantReport:
         now = {k: f for k, f, _ in self._contacts()}
         contacts = tuple(
             ContactReport(geom=self.geom_names[k[0]], body=self._body_of(self._vehicle_geoms[k[0]]),
@@ -312,6 +334,7 @@ class Plant:
             for k, (imp, peak) in sorted(acc.items()))
         return PlantReport(t=self.t, h=self.state(), u_applied=self.applied_input(), clipped=clipped,
                            contacts=contacts, ee_wrench=self.ee_wrench(), ee_impulse=ee_imp,
+                           wrist_impulse=wrist_imp,
                            distances=self.signed_distances(), added_mass_failures=failures)
 
     def _body_of(self, geom: int) -> str:

@@ -233,11 +233,16 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     origin = manifest.start() if out is not None else None
     wall_clock, u_prev, paced_from = time.perf_counter(), None, None
     committed = Committed()
+    sense = getattr(ctl_obj, "sense", None)  # the protocol's optional wrist force/torque sensor
+    wrist, sensed_for = np.zeros(6), 0.0  # the wrist's contact impulse [N s, N m s] and its period [s]
     try:
         while plant.t < sc.duration - 1e-9:
             t = plant.t
             if spec.seconds is None and paced_from is not None:  # measured: no faster than real time
                 time.sleep(max(0.0, t - (time.perf_counter() - paced_from)))
+            if sense is not None and sensed_for > 0.0:
+                sense(wrist / sensed_for)
+            wrist, sensed_for = np.zeros(6), 0.0
             t0 = time.perf_counter()
             u, info = ctl_obj.step(plant.state(), t)
             computed = time.perf_counter() - t0
@@ -257,6 +262,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             for u_seg, duration in [(us, piece) for us, d in segments for piece in _pieces(d, ts, chunk)]:
                 t_seg = plant.t
                 report = plant.step(u_seg, duration)
+                wrist, sensed_for = wrist + report.wrist_impulse, sensed_for + duration
                 for obs in watching:
                     obs.observe(t_seg, report, info, u_seg)
             u_prev = u
