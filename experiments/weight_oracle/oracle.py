@@ -31,6 +31,8 @@ from validation.scenarios import get
 class Told:
     """An observer that knows: its estimate is the drawn extra current and extra weight."""
 
+    updates = 1  # told from the start: never planning with the trim check's weight instead
+
     def __init__(self, current_x: float, weight: float):
         self.estimate = water([current_x, 0.0, 0.0], weight)
 
