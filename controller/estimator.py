@@ -46,12 +46,6 @@ plant has (MuJoCo's Kutta lift and Munk moment, the links' ellipsoid fit) is whe
 models differ most (with a weight of 1 m/rad the MuJoCo estimate moved by 3 mm/s, no closer to the
 injected current).
 
-Through contact (`wrist_sensor`): a period in which the arm's last link or its tip touched is
-predicted with the contact wrench a force/torque sensor at the last joint measured, its mean over
-the period held (the model's Fw; `update`'s `wrench`), so the unknowns stay the free-flight ones.
-Estimating the tip's force as three more unknowns instead lost: under the wide mismatch the current
-traded against it (experiments/observer_contact).
-
 What it cannot estimate: anything else. An inertia, centre-of-buoyancy, thrust or drag-coefficient
 error, or an external push, shows up as the current and weight that would make the same velocity
 change: a plant whose drag law differs as a current scaled and turned by that difference (in MuJoCo
@@ -97,7 +91,6 @@ class ObserverSettings:
     fd_step: float = 1e-3  # m/s or WEIGHT_UNIT N, central finite-difference step of theta for the Jacobian
     substeps: int = 4  # 1, RK4 steps of the prediction over one period (4: the controller's rollouts' code)
     angular_weight: float = 0.0  # m/rad, weight of the hull's angular-velocity residual (0: linear only)
-    wrist_sensor: bool = False  # estimate through the last link's contacts with the wrist sensor's wrench
 
     def __post_init__(self) -> None:
         for name in ("time_constant", "max_speed", "max_weight", "damping", "fd_step"):
@@ -144,11 +137,11 @@ class CurrentObserver:
         self._updates = 0
 
     def _predict(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, known: np.ndarray,
-                 theta: np.ndarray, wrench: np.ndarray | None) -> np.ndarray:
+                 theta: np.ndarray) -> np.ndarray:
         """The weighted hull velocities the model predicts at the end of the period."""
         s = self.settings
         vc = known + self._water(theta)
-        return self.model.held_steps(h_prev, u_prev, dt, s.substeps, Fw=wrench, vc=vc)[self._rows] * self._weights
+        return self.model.held_steps(h_prev, u_prev, dt, s.substeps, vc=vc)[self._rows] * self._weights
 
     def _clip(self, theta: np.ndarray) -> np.ndarray:
         s, out = self.settings, theta.copy()
@@ -159,26 +152,22 @@ class CurrentObserver:
         return out
 
     def update(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, h_now: np.ndarray,
-               known_current: np.ndarray, wrench: np.ndarray | None = None) -> np.ndarray:
+               known_current: np.ndarray) -> np.ndarray:
         """One observer step: u_prev [N, N m] was held over dt [s] from the measured state h_prev to
-        the measured state h_now; known_current [m/s, world] is the current the controller knows;
-        wrench: the contact wrench measured on the arm's last link over the period, held in the
-        prediction (the model's Fw, world: force [N] at the end-effector point and torque [N m]; None:
-        no contact). Returns the updated `estimate`."""
+        the measured state h_now; known_current [m/s, world] is the current the controller knows.
+        Returns the updated `estimate`."""
         s = self.settings
         h_prev, u_prev, h_now = (np.asarray(a, float) for a in (h_prev, u_prev, h_now))
         known = water(np.asarray(known_current, float))
-        wrench = None if wrench is None else np.asarray(wrench, float)
         if not (dt > 0 and np.all(np.isfinite(h_prev)) and np.all(np.isfinite(u_prev))
-                and np.all(np.isfinite(h_now)) and np.all(np.isfinite(known))
-                and (wrench is None or np.all(np.isfinite(wrench)))):
+                and np.all(np.isfinite(h_now)) and np.all(np.isfinite(known))):
             return self.estimate
         theta = self._theta
-        residual = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, theta, wrench)
+        residual = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, theta)
         J = np.empty((len(self._rows), 3))
         for i, e in enumerate(s.fd_step * np.eye(3)):
-            ahead = self._predict(h_prev, u_prev, dt, known, theta + e, wrench)
-            behind = self._predict(h_prev, u_prev, dt, known, theta - e, wrench)
+            ahead = self._predict(h_prev, u_prev, dt, known, theta + e)
+            behind = self._predict(h_prev, u_prev, dt, known, theta - e)
             J[:, i] = (ahead - behind) / (2 * s.fd_step)
         if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(J))):
             return self.estimate
@@ -186,7 +175,7 @@ class CurrentObserver:
         for damping in s.damping * 10.0 ** np.arange(0, 2 * LM_TRIALS, 2):
             delta = np.linalg.solve(J.T @ J + damping * np.eye(3), J.T @ residual)
             trial = self._clip(theta + delta)
-            r = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, trial, wrench)
+            r = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, trial)
             if np.all(np.isfinite(r)) and float(r @ r) < worst:
                 target = trial
                 break

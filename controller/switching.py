@@ -443,9 +443,7 @@ class SwitchingController:
     model's hull weight its own plus the estimated extra weight, updated from each pair of measured
     states in any mode while every body and the tip are at least `contact_clearance` off every plane
     at both (a contact's force would read as a current or a weight), and held
-    otherwise; under a latency it is never updated (it assumes one input over each interval). With
-    ObserverSettings.wrist_sensor the arm's last link and its tip may touch too: the wrist sensor's
-    mean wrench over the period (`sense`, the protocol's) is then held in the observer's prediction.
+    otherwise; under a latency it is never updated (it assumes one input over each interval).
     With `trim_in_contact`, a vehicle in contact before the observer's first update (arm-deployed: on
     the wall 0.05 s in) plans with the extra weight the task's trim check tells (Task.trim less the
     model's own weight in water) instead of none; in free flight the observer's estimate stands, also
@@ -473,11 +471,10 @@ class SwitchingController:
         self._task: Task | None = None
         self._failed: tuple[int, ...] = ()
         self._last: tuple[np.ndarray, np.ndarray, float, bool] | None = None  # h, u, t, whether observed free
-        self._wrench: np.ndarray | None = None  # the wrist sensor's last mean wrench (`sense`)
 
     def reset(self, task: Task) -> None:
         model = UVMSModel(task.params, task.scene.water)
-        self._task, self._failed, self._last, self._wrench = task, task.failed_thrusters(0.0), None, None
+        self._task, self._failed, self._last = task, task.failed_thrusters(0.0), None
         settings = replace(self.settings, failed_thrusters=self._failed,
                            current=tuple(float(c) for c in task.scene.current.at(0.0)))
         self.latency = float(task.latency) if self.settings.plan_for_latency else 0.0
@@ -509,8 +506,7 @@ class SwitchingController:
         free = self.observer is not None and self._free(h)
         if self.observer is not None:
             if self._last is not None and self._last[3] and free and t > self._last[2] and self.latency == 0.0:
-                self.observer.update(self._last[0], self._last[1], t - self._last[2], np.asarray(h, float), known,
-                                     self._wrench)
+                self.observer.update(self._last[0], self._last[1], t - self._last[2], np.asarray(h, float), known)
             untaught = self._trim is not None and not free and not self.observer.updates
             known = known + (self._trim if untaught else self.observer.estimate)
         self.nmpc.current = known
@@ -523,17 +519,8 @@ class SwitchingController:
         self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
         return u, replace(info, water=known.copy())
 
-    def sense(self, wrench: np.ndarray) -> None:
-        """The wrist sensor's mean contact wrench over the period since the last step (protocol),
-        kept for the observer when ObserverSettings.wrist_sensor."""
-        if self.settings.observer.wrist_sensor:
-            self._wrench = np.array(wrench, float)
-
     def _free(self, h: np.ndarray) -> bool:
-        """No unmeasured contact force acts: every body and the tip at least `contact_clearance` off
-        every plane, or, with a measured wrist wrench, every body but the arm's last link."""
+        """Every body and the tip at least `contact_clearance` off every plane: no contact force acts."""
         model, h = self.nmpc.model, np.asarray(h, float)
-        measured = self._wrench is not None
-        return all(float(np.min(np.asarray(model.distances(h, pl.normal, pl.offset))[:-1 if measured else None]))
-                   > self.contact_clearance and (measured or float(tip_gap(model, h, pl)) > self.contact_clearance)
-                   for pl in self.nmpc.planes)
+        return all(float(np.min(np.asarray(model.distances(h, pl.normal, pl.offset)))) > self.contact_clearance
+                   and float(tip_gap(model, h, pl)) > self.contact_clearance for pl in self.nmpc.planes)

@@ -115,6 +115,50 @@ def test_a_computation_delay_holds_the_previous_input(tmp_path, monkeypatch) -> 
         np.testing.assert_array_equal(second[2], commanded[k])
 
 
+class _Sensing:
+    """Zero input with a 0.1 s period; records what its wrist sensor reads (the protocol's sense)."""
+
+    def reset(self, task) -> None:
+        self.n, self.read = task.params.n_inputs, []
+
+    def sense(self, wrench: np.ndarray) -> None:
+        self.read.append(np.array(wrench, float))
+
+    def step(self, h, t):
+        from controller.protocol import StepInfo
+        return np.zeros(self.n), StepInfo(t=t, dt=0.1, mode="zero")
+
+
+@pytest.mark.parametrize("latency", ["none", "0.05"])
+def test_the_wrist_sensor_reads_each_periods_mean_contact_force(latency, monkeypatch) -> None:
+    """arm-deployed with no input: the tip meets the wall 0.05 s in. Before each step but the first
+    the loop hands the controller the period's mean contact wrench on the arm's last link; its force
+    times the period equals the impulse the plant reported per contact (PlantReport.contacts) on the
+    last link's geoms over the plant steps of that period, which a delay splits in two. To 1e-9 N s
+    (the same forces summed in another order)."""
+    from uvms_mj.build import TIP_GEOM
+    from uvms_mj.plant import Plant
+
+    reports, step = [], Plant.step
+
+    def logged(self, u, duration):
+        r = step(self, u, duration)
+        reports.append((self.t, r))
+        return r
+
+    monkeypatch.setattr(Plant, "step", logged)
+    sc = get("arm-deployed").with_overrides({"duration": "0.6"})
+    controller = _Sensing()
+    s = run(sc, controller=controller, mismatch=NONE, latency=latency)
+    last = {TIP_GEOM, f"{load_params().arm.links[-1].name}_geom"}
+    assert len(controller.read) == len(s.steps) - 1 == 5
+    for k, read in enumerate(controller.read, start=1):
+        impulse = sum((c.impulse for t, r in reports if 0.1 * (k - 1) + 1e-9 < t <= 0.1 * k + 1e-9
+                       for c in r.contacts if c.geom in last), np.zeros(3))
+        np.testing.assert_allclose(read[:3] * 0.1, impulse, rtol=0, atol=1e-9)
+    assert np.linalg.norm(controller.read[0][:3]) > 1.0  # the impact is read
+
+
 class _Planner:
     """Returns at step k the plan P_k (three rows, each entry 0.01 (10 k + row) N or N m, within every
     bound), its first row as the input, with a 0.1 s period; its step advances the loop's clock by

@@ -41,7 +41,6 @@ from controller.model import UVMSModel, water
 from uvms import load_params, load_scene
 from uvms.conventions import euler_zyx_to_matrix
 from uvms.params import UVMSParams
-from uvms.scene import Plane
 from validation.model_plant import ModelPlant
 from validation.scenarios import get
 from validation.setup import build_plant, initial_state
@@ -59,11 +58,6 @@ LAG_TOLERANCE = 1e-4  # m/s
 WEIGHT_LAG_TOLERANCE = 0.01  # N
 # Relative deviation from the filter's closed-form response in the linear regime (see the test).
 LINEAR_REGIME_TOLERANCE = 0.02  # 1, of |c|
-# Pressing a plane on the model itself with the wrist sensor's wrench: measured 0.018 m/s (-0.009,
-# 0.015) and 0.004 N off the truth after 5 s. The observer holds the period's mean wrench, the contact's
-# force varies within the period; about twice that. Blind to the wrench: 0.47 m/s and 4.8 N off.
-PRESSING_TOLERANCE = 0.03  # m/s
-PRESSING_WEIGHT_TOLERANCE = 0.01  # N
 # No current injected into MuJoCo: the estimate's largest current was 0.006 m/s and its largest
 # weight 0.30 N, while the station keeper settles: heave speeds of mm/s, where MuJoCo's drag has only
 # a viscous linear term thousands of times smaller than the Fossen linear damping, so the models'
@@ -218,47 +212,6 @@ def test_on_the_model_itself_only_the_filter_lag_remains(model: UVMSModel, curre
     if not np.any(c) and weight == 0.0:
         assert np.max(np.abs(np.array(estimates)[:, :3])) < LAG_TOLERANCE
         assert np.max(np.abs(np.array(estimates)[:, 3])) < WEIGHT_LAG_TOLERANCE
-
-
-def pressing_on_the_model(model: UVMSModel, truth: np.ndarray, measured: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The Kane model as the plant (ModelPlant: 2 ms RK4 steps, its spring-damper tip contact) in
-    `truth` (model.water: current, extra weight), station keeping yawed YAW with the arm at home and
-    its tip on a plane ahead of it, pushed onto it by the hold (about 30 N); the observer (told of no current)
-    updated every DT for DURATION with the period's mean tip force as the wrist sensor's wrench, or
-    without it. Returns the last estimate and the last period's mean tip force [N, world]."""
-    p = model.params
-    h0 = np.zeros(p.n_states)
-    h0[2], h0[5], h0[6:6 + p.n_joints] = -1.5, np.radians(YAW), p.arm.home
-    tip = np.asarray(model.ee_pose(h0)[0]).ravel()
-    ahead = np.array([tip[0] - h0[0], tip[1] - h0[1], 0.0])
-    ahead /= np.linalg.norm(ahead)
-    plane = Plane.through("ahead", tip + (p.arm.tip_radius - 0.002) * ahead, -ahead)
-    plant = ModelPlant(model, (plane,), h0, current=truth)
-    target = h0.copy()
-    target[:3] += 1.5 * ahead  # the hold's 20 N/m spring, aimed 1.5 m into the plane: a steady push
-    policy, observer = station_keeper(model, target), CurrentObserver(model)
-    h, force = h0, np.zeros(3)
-    for _ in range(round(DURATION / DT)):
-        u = policy(h)
-        force = plant.step(u, DT).tip_force_mean
-        observer.update(h, u, DT, plant.h, np.zeros(3), np.concatenate([force, np.zeros(3)]) if measured else None)
-        h = plant.h.copy()
-    return observer.estimate, force
-
-
-def test_on_the_model_pressing_a_plane_the_wrist_sensor_keeps_the_estimate(model: UVMSModel) -> None:
-    """Through a steady tip contact the observer, given the wrist sensor's mean wrench, finds the
-    current and weight as in free flight: within PRESSING_TOLERANCE and PRESSING_WEIGHT_TOLERANCE of
-    the truth (0.15, 0.08) m/s and 20 N. Without the wrench it reads the push as current and weight,
-    off by more than ten times those (so the sensor's reading is what the estimate rests on)."""
-    truth = water([INJECTED, 0.08, 0.0], 20.0)
-    estimate, force = pressing_on_the_model(model, truth, measured=True)
-    assert np.linalg.norm(force) > 20.0  # the tip does press
-    np.testing.assert_allclose(estimate[:3], truth[:3], rtol=0, atol=PRESSING_TOLERANCE)
-    assert abs(estimate[3] - truth[3]) < PRESSING_WEIGHT_TOLERANCE
-    blind, _ = pressing_on_the_model(model, truth, measured=False)
-    assert (np.linalg.norm(blind[:3] - truth[:3]) > 10 * PRESSING_TOLERANCE
-            or abs(blind[3] - truth[3]) > 10 * PRESSING_WEIGHT_TOLERANCE)
 
 
 @pytest.mark.parametrize("time_constant", [0.3, 1.0])
