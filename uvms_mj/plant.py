@@ -287,26 +287,22 @@ class Plant:
 
     def ee_wrench(self) -> np.ndarray:
         """End-effector contact wrench now: force [N] and torque about the EE point [N m], world."""
-        w = np.zeros(6)
-        if self._tip < 0:
-            return w
-        p_ee = self.data.site_xpos[self._ee_site]
-        for (veh, _plane), f, pos in self._contacts():
-            if self._vehicle_geoms[veh] == self._tip:
-                w[:3] += f
-                w[3:] += _cross(pos - p_ee, f)
-        return w
+        return self._wrench_on({self._tip})
 
     def wrist_wrench(self) -> np.ndarray:
         """What a force/torque sensor between the last joint and the arm's last link reads once
         tared (its link's own weight, buoyancy, inertia and fluid load taken out): the contact
         wrench on that link and its tip, force [N] and torque about the EE point [N m], world."""
+        return self._wrench_on(self._last_link)
+
+    def _wrench_on(self, geoms: set[int]) -> np.ndarray:
+        """The contact force [N] on those geoms now and its torque about the EE point [N m], world."""
         w = np.zeros(6)
         if self._tip < 0:
             return w
         p_ee = self.data.site_xpos[self._ee_site]
         for (veh, _plane), f, pos in self._contacts():
-            if self._vehicle_geoms[veh] in self._last_link:
+            if self._vehicle_geoms[veh] in geoms:
                 w[:3] += f
                 w[3:] += _cross(pos - p_ee, f)
         return w
