@@ -8,14 +8,18 @@ A controller is any object with
 and, optionally,
 
     sense(wrench: np.ndarray) -> None             before each step but the first
+    late(u: np.ndarray) -> None                   after a step whose answer was discarded
 
 `h` is the measured state in the paper's layout (controller.model.UVMSModel: position, ZYX Euler
 angles, joint angles | body-frame velocities, joint rates), `t` the simulated time [s]; `u` the
 thruster forces [N] and joint torques [N m] to hold for `StepInfo.dt` seconds. `wrench` is what a
 tared force/torque sensor between the last joint and the arm's last link read, averaged over the
 period since the previous step: the contact force on that link and its tip [N] and its torque about
-the end-effector point [N m], world frame (as the model's contact wrench Fw with Rw = I). A class may declare
-`settings_type`, a frozen dataclass: the testbed then builds it as `Class(settings)` with the
+the end-effector point [N m], world frame (as the model's contact wrench Fw with Rw = I).
+`late` tells a controller that strict real time discarded its step's answer (it overran the
+latency) and applied `u`, the input it had committed in advance, in its place, from the latency
+after that step's state until the next input acts: what its own clock would tell it on a vehicle.
+A class may declare `settings_type`, a frozen dataclass: the testbed then builds it as `Class(settings)` with the
 preset's and the command line's dotted overrides applied (validation.presets), else as `Class()`.
 The switching NMPC (controller.switching.SwitchingController), its Mode-I-only baseline and the
 braking baseline (controller.baselines) are implementations; examples/ has a small one.

@@ -451,11 +451,11 @@ class SwitchingController:
     observer's first target misreads it: experiments/trim_prior).
 
     With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
-    after the measured one under the input it returned last, which acts meanwhile, in free flight
-    (SwitchingNMPC.predict): Modes I and II plan from it for the reference at t + L, and Mode III's
-    entry check reads the tip there; Mode III plans from the measured state (SwitchingNMPC.step
-    says why). Mode II's intervals are at least L long (dt_bounds and dt_nominal raised to L), so
-    that each input acts for as long as it was planned.
+    after the measured one under the input it returned last, which acts meanwhile (or the one the
+    loop applied in its place, `late`), in free flight (SwitchingNMPC.predict): Modes I and II
+    plan from it for the reference at t + L, and Mode III's entry check reads the tip there; Mode III
+    plans from the measured state (SwitchingNMPC.step says why). Mode II's intervals are at least L
+    long (dt_bounds and dt_nominal raised to L), so that each input acts for as long as it was planned.
     Algorithm 1's horizon rule is unchanged: the plan of the next step starts one interval later,
     as without a delay. L may not exceed Mode I's or Mode III's interval."""
 
@@ -518,6 +518,13 @@ class SwitchingController:
         self._started = True
         self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
         return u, replace(info, water=known.copy())
+
+    def late(self, u: np.ndarray) -> None:
+        """The strict real-time loop discarded the last step's answer and applied u in its place
+        (controller.protocol): u, not the answer, acts during the next step's latency, so the next
+        step predicts under it."""
+        if self.nmpc is not None:
+            self.nmpc.last_u = np.clip(np.asarray(u, float), self.nmpc.lo, self.nmpc.hi)
 
     def _free(self, h: np.ndarray) -> bool:
         """Every body and the tip at least `contact_clearance` off every plane: no contact force acts."""

@@ -165,7 +165,10 @@ class _Planner:
     0.08 s at the steps in `slow` and by 1 ms otherwise."""
 
     def __init__(self, clock: list[float], slow: set[int]):
-        self.clock, self.slow, self.k = clock, slow, 0
+        self.clock, self.slow, self.k, self.told = clock, slow, 0, []
+
+    def late(self, u) -> None:
+        self.told.append((self.k - 1, np.array(u, float)))
 
     def reset(self, task) -> None:
         self.n = task.params.n_inputs
@@ -188,7 +191,8 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, monkey
     then its last row again once the plan is used up; step 5 is on time and its own plan's first
     row applies. Not strict: every answer applies, late or not. The oracle is the plans themselves
     (every input the plant receives is logged, Plant.step); the summary counts the three overruns,
-    in the step records and in the mode's timing."""
+    in the step records and in the mode's timing. The controller is told (`late`) after each
+    discarded answer exactly the input the plant then received in its place, and only then."""
     import validation.closed_loop as loop
     from uvms_mj.plant import Plant
 
@@ -216,6 +220,9 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, monkey
     assert [st.overrun for st in s.steps] == [False, False, True, True, True, False]
     assert s.overruns == 3 and s.solve_time["plan"].overruns == 3
     assert [st.fallback != "none" for st in s.steps] == [False, False, strict, strict, strict, False]
+    assert [k for k, _ in ctl.told] == ([2, 3, 4] if strict else [])
+    for (k, told), (_, applied) in zip(ctl.told, late, strict=False):
+        np.testing.assert_array_equal(told, applied, err_msg=f"told after step {k}")
 
 
 def test_overrides_parse_numbers_and_tuples() -> None:

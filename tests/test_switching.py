@@ -171,7 +171,9 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene) 
     the model's RK4 in 200 substeps of 0.25 ms from the measured state under that input and
     current, against the plan's first node (4 substeps of 12.5 ms). Tolerance 1e-6 (m, rad, m/s,
     rad/s): RK4's error at 12.5 ms on this motion is below 1e-8; anything from the wrong input, the
-    wrong time or no prediction at all is above 1e-3. Mode II's intervals are raised to the
+    wrong time or no prediction at all is above 1e-3. After the loop tells it that the second
+    answer was discarded for a committed input (`late`: zero here), the third step predicts under
+    that input, not its own answer (the same oracle). Mode II's intervals are raised to the
     latency, and a latency longer than Mode I's interval is refused in one line."""
     from controller.protocol import Task
     from controller.switching import SwitchingController
@@ -187,11 +189,20 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene) 
     u0, info0 = ctl.step(h, 0.0)
     assert info0.mode is Mode.I and np.array_equal(info0.h_pred[0], h)
     h1 = model.held_steps(h, u0, 0.1, 400, vc=np.array([0.1, 0.0, 0.0]))  # the plant, held input
-    _, info1 = ctl.step(h1, 0.1)
+    u1, info1 = ctl.step(h1, 0.1)
     fine = model.held_steps(h1, u0, 0.05, 200, vc=np.array([0.1, 0.0, 0.0]))
     assert info1.t == 0.1 and info1.mode is Mode.I
     np.testing.assert_allclose(info1.h_pred[0], fine, atol=1e-6)
     assert np.max(np.abs(fine - h1)) > 1e-3  # the prediction is not the measured state
+    committed = np.zeros_like(u1)
+    ctl.late(committed)
+    h2 = model.held_steps(h1, committed, 0.1, 400, vc=np.array([0.1, 0.0, 0.0]))
+    _, info2 = ctl.step(h2, 0.2)
+    fine = model.held_steps(h2, committed, 0.05, 200, vc=np.array([0.1, 0.0, 0.0]))
+    assert info2.mode is Mode.I
+    np.testing.assert_allclose(info2.h_pred[0], fine, atol=1e-6)
+    answered = model.held_steps(h2, u1, 0.05, 200, vc=np.array([0.1, 0.0, 0.0]))
+    assert np.max(np.abs(fine - answered)) > 1e-3  # the discarded answer would predict elsewhere
     with pytest.raises(ValueError, match="allowed") as err:
         SwitchingController().reset(replace(task, latency=0.15))
     assert "\n" not in str(err.value)

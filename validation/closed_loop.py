@@ -20,7 +20,7 @@ discarded, as if its computation had been cut at L, and the input the controller
 advance is applied instead for one period of its last accepted step: the next input of that step's
 plan (StepInfo.u_pred, whose first row is the input it returned), one further row per consecutive
 overrun, and its last input held once the plan runs out (a controller without a plan: its last
-input). The controller is not told; its next step starts from the measured state.
+input). The controller is told through the protocol's optional `late(u)`, with the input applied.
 
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
 tip, and only the tip, touch. A stowed arm that hits the wall before the hull spares the hull but is
@@ -234,6 +234,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     wall_clock, u_prev, paced_from = time.perf_counter(), None, None
     committed = Committed()
     sense = getattr(ctl_obj, "sense", None)  # the protocol's optional wrist force/torque sensor
+    late = getattr(ctl_obj, "late", None)  # the protocol's optional notice of a discarded answer
     wrist, sensed_for = np.zeros(6), 0.0  # the wrist's contact impulse [N s, N m s] and its period [s]
     try:
         while plant.t < sc.duration - 1e-9:
@@ -253,6 +254,8 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             overrun = not undelayed and spec.seconds not in (None, 0.0) and computed > spec.seconds
             if overrun and spec.strict:
                 u, period = committed.take(u_prev)
+                if late is not None:
+                    late(u.copy())
                 info = replace(info, dt=period, fallback=LATE, h_pred=None, u_pred=None, contact_force=None)
             else:
                 committed.accept(info)
