@@ -1,0 +1,13 @@
+#!/bin/sh
+# ABBA: told/a, blind/a, blind/b, told/b (README). Run from experiments/realtime_late_notice.
+set -e
+UVMS=/work/main/.venv/bin/uvms
+part() {  # arm worktree first-seed part
+  PYTHONPATH=$2 MUJOCO_GL=egl $UVMS campaign --scenarios wall-headon,wall-oblique,arm-deployed \
+    --controllers switching --seeds 12 --first-seed $3 --workers 1 --timeout 900 \
+    --latency 0.05:strict --out $1/$4
+}
+part told /work/told 5000 a
+part blind /work/blind 5000 a
+part blind /work/blind 5012 b
+part told /work/told 5012 b
