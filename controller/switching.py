@@ -235,8 +235,8 @@ class SwitchingNMPC:
         """The input u (thruster forces N, joint torques N m) to hold for info.dt seconds. `ahead`:
         the state predicted for when the input will act, and that time [s] (`predict`; None: h, t).
         Modes I and II plan from it and the check that the tip reached the plane reads it; Mode III
-        plans from its own prediction through the contact (`_ahead_in_contact`), and the release
-        check reads the measured h."""
+        and the release check read the measured h (planning from a prediction through the contact
+        lost: experiments/realtime_mode3_ahead)."""
         h = np.asarray(h, float)
         if h.shape != (self.model.n_states,) or not np.all(np.isfinite(h)):
             raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
@@ -257,7 +257,7 @@ class SwitchingNMPC:
         elif self.mode is Mode.II:
             out = self._step_mode2(h_a)
         else:
-            out = self._step_mode3(self._ahead_in_contact(h, t_a - t))
+            out = self._step_mode3(h)
         self.last_u = np.clip(out.u, self.lo, self.hi)
         info = StepInfo(t=t, mode=self._reported_mode, status=out.status, fallback=out.fallback,
                         solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=out.iterations,
@@ -406,15 +406,6 @@ class SwitchingNMPC:
         return _ModeStep(u, sol.status, fallback, iters, dt, N, hp, up, certificate=cert,
                          impact_force=ocp.impact_force(hp[-1]))
 
-    def _ahead_in_contact(self, h: np.ndarray, seconds: float) -> np.ndarray:
-        """Mode III's start `seconds` after h: the last input held with the previous Mode III plan's
-        first contact force acting, the tip put back on the plane (as the plan's recomputed states);
-        h itself without a delay or without a Mode III plan (its first step, after a failed solve)."""
-        plan = self._plan
-        if seconds <= 0.0 or not isinstance(plan, ModeIIISolution):
-            return h
-        return self._resimulate(h, self.last_u[None], seconds, plan.force[:1], self.ocp3(self.contact))[-1]
-
     def _step_mode3(self, h: np.ndarray) -> _ModeStep:
         self._reported_mode = Mode.III
         s, ocp = self.settings.mode3, self.ocp3(self.contact)
@@ -461,13 +452,12 @@ class SwitchingController:
     observer's first target misreads it: experiments/trim_prior).
 
     With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
-    after the measured one under the input it returned last, which acts meanwhile: in free flight
-    (SwitchingNMPC.predict) for Modes I and II, which plan from it for the reference at t + L, and
-    for Mode III's entry check, which reads the tip there; through the contact, with its previous
-    plan's force, for Mode III (SwitchingNMPC.step). Mode II's intervals are at least L long
-    (dt_bounds and dt_nominal raised to L), so that each input acts for as long as it was planned. It
-    does not use the protocol's `late` (predicting under the committed input lost in strict real
-    time: experiments/realtime_late_notice).
+    after the measured one under the input it returned last, which acts meanwhile, in free flight
+    (SwitchingNMPC.predict): Modes I and II plan from it for the reference at t + L, and Mode III's
+    entry check reads the tip there; Mode III plans from the measured state (SwitchingNMPC.step
+    says why). Mode II's intervals are at least L long (dt_bounds and dt_nominal raised to L), so
+    that each input acts for as long as it was planned. It does not use the protocol's `late`
+    (predicting under the committed input lost in strict real time: experiments/realtime_late_notice).
     Algorithm 1's horizon rule is unchanged: the plan of the next step starts one interval later,
     as without a delay. L may not exceed Mode I's or Mode III's interval."""
 

@@ -114,38 +114,6 @@ def test_contact_check_holds_mode_three_until_the_tip_is_on_the_plane(params, sc
     assert ctl.step(on, 0.0)[1].mode is Mode.III
 
 
-def test_under_a_latency_mode_three_plans_from_its_prediction_through_the_contact(params, scene) -> None:
-    """The tip on the wall, the hull 0.15 m off and closing at 0.2 m/s (Mode III): the first step
-    plans from the measured state (no contact force planned yet); the second, its input acting 0.05 s
-    after its state (`ahead`), plans from that state 0.05 s on under the first step's input with its
-    plan's first contact force, the tip put back on the wall. Oracle: the model's RK4 in 200 substeps
-    of 0.25 ms under that input and force, then the same projection, against the plan's first node (4
-    substeps of 12.5 ms). Tolerance 1e-6 (m, rad, m/s, rad/s): RK4's error at 12.5 ms on this motion
-    is far below it; planning from the measured state, or without the contact force, is above 1e-3."""
-    model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, wall_approach(0.15, 0.2))
-    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
-    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings())
-    ctl.mode, ctl._reported_mode, ctl.contact = Mode.III, Mode.II, wall
-    ocp = ctl.ocp3(wall)
-    h[6:6 + params.n_joints] = ocp.onto_plane(h)
-    u1, first = ctl.step(h, 0.0)
-    assert first.mode is Mode.III and np.array_equal(first.h_pred[0], h)
-    force = np.concatenate([first.contact_force[0], np.zeros(3)])
-
-    def held(f: np.ndarray) -> np.ndarray:
-        x = model.held_steps(h, u1, 0.05, 200, Fw=f, Rw=ocp.Rw, vc=ctl.current)
-        x[6:6 + params.n_joints] = ocp.onto_plane(x)
-        return x
-
-    _, second = ctl.step(h, 0.1, ahead=(h, 0.15))
-    assert second.mode is Mode.III and second.t == 0.1
-    fine = held(force)
-    np.testing.assert_allclose(second.h_pred[0], fine, atol=1e-6)
-    assert np.max(np.abs(fine - h)) > 1e-3
-    assert np.max(np.abs(fine - held(np.zeros(6)))) > 1e-3
-
-
 @pytest.mark.slow
 def test_the_deploy_deadline_skips_a_question_whose_answer_changes_nothing(params, scene) -> None:
     """On an unavoidable oblique approach (closest body 1 cm off the wall at 0.86 m/s, 30 deg: 1.1
