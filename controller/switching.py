@@ -455,8 +455,10 @@ class SwitchingController:
     after the measured one under the input it returned last, which acts meanwhile, in free flight
     (SwitchingNMPC.predict): Modes I and II plan from it for the reference at t + L, and Mode III's
     entry check reads the tip there; Mode III plans from the measured state (SwitchingNMPC.step
-    says why). Mode II's intervals are at least L long (dt_bounds and dt_nominal raised to L), so
-    that each input acts for as long as it was planned. It does not use the protocol's `late`
+    says why). Mode II's intervals are at least L long, so that each input acts for as long as it
+    was planned: dt_bounds scaled so that their lower end is L (their ratio kept: the default's
+    (0.025, 0.05) s become (L, 2L), so that a plan behind schedule can still stretch its time to
+    contact: experiments/realtime_mode2_stretch), dt_nominal raised to L. It does not use the protocol's `late`
     (predicting under the committed input lost in strict real time: experiments/realtime_late_notice).
     Algorithm 1's horizon rule is unchanged: the plan of the next step starts one interval later,
     as without a delay. L may not exceed Mode I's or Mode III's interval."""
@@ -487,9 +489,9 @@ class SwitchingController:
                 raise ValueError(f"task latency {self.latency} s is longer than Mode I's and III's interval; allowed: "
                                  f"at most {longest} s, or plan_for_latency=false")
             m2 = s.mode2
+            scale = max(1.0, self.latency / m2.dt_bounds[0])
             settings = replace(s, mode2=replace(m2, dt_nominal=max(m2.dt_nominal, self.latency),
-                                                dt_bounds=(max(m2.dt_bounds[0], self.latency),
-                                                           max(m2.dt_bounds[1], self.latency))))
+                                                dt_bounds=(m2.dt_bounds[0] * scale, m2.dt_bounds[1] * scale)))
         self._started = False
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
         self.observer = CurrentObserver(model, self.settings.observer) if self.settings.observe_current else None

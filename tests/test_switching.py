@@ -171,8 +171,9 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene) 
     the model's RK4 in 200 substeps of 0.25 ms from the measured state under that input and
     current, against the plan's first node (4 substeps of 12.5 ms). Tolerance 1e-6 (m, rad, m/s,
     rad/s): RK4's error at 12.5 ms on this motion is below 1e-8; anything from the wrong input, the
-    wrong time or no prediction at all is above 1e-3. Mode II's intervals are raised to the
-    latency, and a latency longer than Mode I's interval is refused in one line."""
+    wrong time or no prediction at all is above 1e-3. Mode II's interval range is scaled to
+    start at the latency (the default's (0.025, 0.05) s to (0.05, 0.1) s), and a latency longer
+    than Mode I's interval is refused in one line."""
     from controller.protocol import Task
     from controller.switching import SwitchingController
 
@@ -183,7 +184,7 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene) 
     task = Task("latency", params, water, h, lambda t: ref, latency=0.05)
     ctl = SwitchingController()
     ctl.reset(task)
-    assert ctl.nmpc.settings.mode2.dt_bounds == (0.05, 0.05) and ctl.nmpc.settings.mode2.dt_nominal == 0.05
+    assert ctl.nmpc.settings.mode2.dt_bounds == (0.05, 0.1) and ctl.nmpc.settings.mode2.dt_nominal == 0.05
     u0, info0 = ctl.step(h, 0.0)
     assert info0.mode is Mode.I and np.array_equal(info0.h_pred[0], h)
     h1 = model.held_steps(h, u0, 0.1, 400, vc=np.array([0.1, 0.0, 0.0]))  # the plant, held input
