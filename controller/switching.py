@@ -84,6 +84,9 @@ class SwitchingSettings:
     observer: ObserverSettings = field(default_factory=ObserverSettings)
     trim_in_contact: bool = True  # in contact before the observer's first update: the task's trim's weight
     plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
+    # s: with plan_for_latency, plan for at least this delay when the task tells less (a measured delay,
+    # which a task cannot tell in advance, is told as 0)
+    assumed_latency: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -451,17 +454,18 @@ class SwitchingController:
     before its first update (told at the first step, Mode I's first plan pitches a heavy hull and the
     observer's first target misreads it: experiments/trim_prior).
 
-    With a task latency L > 0 and `plan_for_latency`, each step after the first predicts the state L
-    after the measured one under the input it returned last, which acts meanwhile, in free flight
-    (SwitchingNMPC.predict): Modes I and II plan from it for the reference at t + L, and Mode III's
-    entry check reads the tip there; Mode III plans from the measured state (SwitchingNMPC.step
-    says why). Mode II's intervals are at least L long, so that each input acts for as long as it
-    was planned: dt_bounds scaled so that their lower end is L (their ratio kept: the default's
-    (0.025, 0.05) s become (L, 2L), so that a plan behind schedule can still stretch its time to
-    contact: experiments/realtime_mode2_stretch), dt_nominal raised to L. It does not use the protocol's `late`
-    (predicting under the committed input lost in strict real time: experiments/realtime_late_notice).
-    Algorithm 1's horizon rule is unchanged: the plan of the next step starts one interval later,
-    as without a delay. L may not exceed Mode I's or Mode III's interval."""
+    With a task latency L > 0 (or `assumed_latency`, if larger) and `plan_for_latency`, each step
+    after the first predicts the state L after the measured one under the input it returned last,
+    which acts meanwhile, in free flight (SwitchingNMPC.predict): Modes I and II plan from it for
+    the reference at t + L, and Mode III's entry check reads the tip there; Mode III plans from the
+    measured state (SwitchingNMPC.step says why). Mode II's intervals are at least L long, so that
+    each input acts for as long as it was planned: dt_bounds scaled so that their lower end is L
+    (their ratio kept: the default's (0.025, 0.05) s become (L, 2L), so that a plan behind schedule
+    can still stretch its time to contact: experiments/realtime_mode2_stretch), dt_nominal raised
+    to L. It does not use the protocol's `late` (predicting under the committed input lost in
+    strict real time: experiments/realtime_late_notice). Algorithm 1's horizon rule is unchanged:
+    the plan of the next step starts one interval later, as without a delay. L may not exceed Mode
+    I's or Mode III's interval."""
 
     settings_type = SwitchingSettings
     contact_clearance = 0.02  # m
@@ -481,7 +485,8 @@ class SwitchingController:
         self._task, self._failed, self._last = task, task.failed_thrusters(0.0), None
         settings = replace(self.settings, failed_thrusters=self._failed,
                            current=tuple(float(c) for c in task.scene.current.at(0.0)))
-        self.latency = float(task.latency) if self.settings.plan_for_latency else 0.0
+        told = max(float(task.latency), self.settings.assumed_latency)
+        self.latency = told if self.settings.plan_for_latency else 0.0
         if self.latency > 0.0:
             s = settings
             longest = min(s.mode1.dt, s.mode3.dt)

@@ -164,16 +164,17 @@ def test_every_solve_is_reported_to_the_hook(params, scene) -> None:
     assert "certificate" in kinds and kinds[-1] == "mode2"
 
 
-def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene) -> None:
-    """Task latency 0.05 s, 0.3 m/s towards the wall 1 m ahead with a 0.1 m/s current (Mode I): the
-    first step plans from the measured state (its input acts at once); the second from the state
-    0.05 s later under the first step's input held, which is what acts during the delay. Oracle:
-    the model's RK4 in 200 substeps of 0.25 ms from the measured state under that input and
-    current, against the plan's first node (4 substeps of 12.5 ms). Tolerance 1e-6 (m, rad, m/s,
-    rad/s): RK4's error at 12.5 ms on this motion is below 1e-8; anything from the wrong input, the
-    wrong time or no prediction at all is above 1e-3. Mode II's interval range is scaled to
-    start at the latency (the default's (0.025, 0.05) s to (0.05, 0.1) s), and a latency longer
-    than Mode I's interval is refused in one line."""
+@pytest.mark.parametrize("told, assumed", [(0.05, 0.0), (0.0, 0.05)])
+def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene, told, assumed) -> None:
+    """Task latency 0.05 s (or none told and 0.05 s assumed: `assumed_latency`), 0.3 m/s towards
+    the wall 1 m ahead with a 0.1 m/s current (Mode I): the first step plans from the measured
+    state (its input acts at once); the second from the state 0.05 s later under the first step's
+    input held, which is what acts during the delay. Oracle: the model's RK4 in 200 substeps of
+    0.25 ms from the measured state under that input and current, against the plan's first node
+    (4 substeps of 12.5 ms). Tolerance 1e-6 (m, rad, m/s, rad/s): RK4's error at 12.5 ms on this
+    motion is below 1e-8; anything from the wrong input, the wrong time or no prediction at all is
+    above 1e-3. Mode II's interval range is scaled to start at the latency (the default's (0.025,
+    0.05) s to (0.05, 0.1) s), and a latency longer than Mode I's interval is refused in one line."""
     from controller.protocol import Task
     from controller.switching import SwitchingController
 
@@ -181,8 +182,8 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene) 
     h, ref = initial_state(params, wall_approach(1.0, 0.3))
     from uvms.scene import Current
     water = scene.with_current(Current.constant((0.1, 0.0, 0.0)))
-    task = Task("latency", params, water, h, lambda t: ref, latency=0.05)
-    ctl = SwitchingController()
+    task = Task("latency", params, water, h, lambda t: ref, latency=told)
+    ctl = SwitchingController(SwitchingSettings(assumed_latency=assumed))
     ctl.reset(task)
     assert ctl.nmpc.settings.mode2.dt_bounds == (0.05, 0.1) and ctl.nmpc.settings.mode2.dt_nominal == 0.05
     u0, info0 = ctl.step(h, 0.0)
@@ -194,7 +195,7 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene) 
     np.testing.assert_allclose(info1.h_pred[0], fine, atol=1e-6)
     assert np.max(np.abs(fine - h1)) > 1e-3  # the prediction is not the measured state
     with pytest.raises(ValueError, match="allowed") as err:
-        SwitchingController().reset(replace(task, latency=0.15))
+        SwitchingController(SwitchingSettings(assumed_latency=assumed)).reset(replace(task, latency=0.15))
     assert "\n" not in str(err.value)
 
 
