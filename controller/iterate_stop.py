@@ -5,13 +5,10 @@ feasible set, non-empty? Its first iterate whose inputs, re-simulated, are a poi
 the rest of IPOPT's run only drives the slacks of inactive constraints to zero with the barrier and
 optimizes the 1e-6 tracking regularization, and on hard problems it could walk away from such a
 point and end at its iteration cap with slacks of metres.
-
-FeasibleAfter is such a test for a solve with a time budget (Modes II and III's `time_budget`).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 import casadi as ca
@@ -54,23 +51,3 @@ class IterateStop(ca.Callback):
         if not self.fired:
             self.fired = bool(self.accept(np.asarray(arg[0]).ravel(), np.asarray(arg[2]).ravel()))
         return [1 if self.fired else 0]
-
-
-class FeasibleAfter:
-    """IterateStop's test for a solve with a time budget [s]: from `budget` seconds after `start`,
-    accept the first iterate whose constraint values lie within their bounds to `tolerance` (IPOPT's
-    iterates keep the variables' bounds). Before the budget the solve runs on towards the optimum;
-    after it, a usable plan now beats a better one late (a real-time step's answer is due)."""
-
-    def __init__(self, budget: float, tolerance: float):
-        self.budget, self.tolerance = budget, tolerance
-        self.t0, self.lbg, self.ubg = 0.0, np.zeros(0), np.zeros(0)
-
-    def start(self, lbg: np.ndarray, ubg: np.ndarray) -> None:
-        """A solve with these constraint bounds begins now."""
-        self.t0, self.lbg, self.ubg = time.perf_counter(), np.asarray(lbg, float), np.asarray(ubg, float)
-
-    def __call__(self, x: np.ndarray, g: np.ndarray) -> bool:
-        if time.perf_counter() - self.t0 < self.budget:
-            return False
-        return float(np.max(np.maximum(self.lbg - g, g - self.ubg), initial=0.0)) <= self.tolerance

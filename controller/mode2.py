@@ -41,12 +41,10 @@ import numpy as np
 
 from controller import impact
 from controller.codegen import NumpyCall
-from controller.iterate_stop import FeasibleAfter, IterateStop
 from controller.model import WATER, UVMSModel, water
 from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import (
-    FEASIBLE_VIOLATION,
     SolverStatus,
     clearances,
     contact_rows,
@@ -84,9 +82,6 @@ class ModeIISettings:
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
     warm_start: bool = True  # from the previous solve's multipliers too, with a small initial barrier
-    # s: from this long into a solve, IPOPT stops at its first iterate within FEASIBLE_VIOLATION of every
-    # constraint (status STOPPED; controller.iterate_stop.FeasibleAfter). None: no budget
-    time_budget: float | None = None
 
 
 @dataclass(frozen=True)
@@ -147,8 +142,6 @@ class ModeIIOCP:
                             "warm_start_mult_bound_push": 1e-6, "mu_init": 1e-3, "mu_strategy": "monotone",
                             **s.ipopt_options}
         self._solvers: dict[tuple[int, bool], ca.Function] = {}
-        self.budget = None if s.time_budget is None else FeasibleAfter(s.time_budget, FEASIBLE_VIOLATION)
-        self._stops: dict[tuple[int, bool], IterateStop] = {}
         self._functions = stage_functions(self._problem(1), self._name)
         self._lo_u, self._hi_u = p.input_bounds()
         self._q_lo = np.array([lk.joint_range[0] for lk in p.arm.links])
@@ -176,14 +169,8 @@ class ModeIIOCP:
         """The NLP for horizon N, cold or warm-started (assembled on first use from the shared
         compiled stage functions, then cached)."""
         if (N, warm) not in self._solvers:
-            callback = {}
-            if self.budget is not None:
-                nc = self.ns + self.nv + 1 + self.n_clear
-                self._stops[N, warm] = IterateStop(self._problem(N).n_w, self.ns + N * nc + 1, self.budget)
-                callback = {"iteration_callback": self._stops[N, warm]}
             self._solvers[N, warm] = build_solver(self._problem(N), self._name,
-                                                  self._warm_ipopt if warm else self._ipopt, self._functions,
-                                                  callback)
+                                                  self._warm_ipopt if warm else self._ipopt, self._functions)
         return self._solvers[N, warm]
 
     def shifted_duals(self, sol: ModeIISolution, N_next: int) -> tuple[np.ndarray, np.ndarray] | None:
@@ -277,18 +264,13 @@ class ModeIIOCP:
         args = {"x0": w0, "p": P, "lbx": lbw, "ubx": ubw, "lbg": lbg, "ubg": ubg}
         if warm:
             args.update(lam_g0=duals[0], lam_x0=duals[1])
-        stop = self._stops.get((N, warm))
-        if stop is not None:
-            stop.fired = False
-            self.budget.start(lbg, ubg)
         t0 = time.perf_counter()
         r = solver(**args)
         elapsed = time.perf_counter() - t0
         st = solver.stats()
         w = np.asarray(r["x"]).ravel()
         h_plan = np.array([w[k * nz:k * nz + ns] for k in range(N + 1)])
-        status = SolverStatus.STOPPED if stop is not None and stop.fired else ipopt_status(st)
-        return ModeIISolution(status=status, h=h_plan,
+        return ModeIISolution(status=ipopt_status(st), h=h_plan,
                               u=np.array([w[k * nz + ns + 1:k * nz + ns + 1 + nu] for k in range(N)]),
                               dt=float(w[ns]), solve_time=elapsed, iterations=int(st["iter_count"]),
                               cost=float(r["f"]), w=w, impact_force=self.impact_force(h_plan[-1]),

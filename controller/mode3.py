@@ -32,11 +32,9 @@ from dataclasses import dataclass, field, replace
 import casadi as ca
 import numpy as np
 
-from controller.iterate_stop import FeasibleAfter, IterateStop
 from controller.model import WATER, UVMSModel, water
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import (
-    FEASIBLE_VIOLATION,
     SolverStatus,
     clearances,
     ipopt_status,
@@ -85,9 +83,6 @@ class ModeIIISettings:
     max_iter: int = 200
     tol: float = 1e-6
     acceptable_iter: int = 3  # IPOPT stops after this many iterations at its acceptable level (0: never)
-    # s: from this long into a solve, IPOPT stops at its first iterate within FEASIBLE_VIOLATION of every
-    # constraint (status STOPPED; controller.iterate_stop.FeasibleAfter). None: no budget
-    time_budget: float | None = None
     ipopt_options: dict = field(default_factory=dict)
 
 
@@ -189,10 +184,7 @@ class ModeIIIOCP:
         }
         name = f"mode3_{p.name}_{p.arm.name}_{plane.name}"
         functions = stage_functions(problem, name)
-        self.budget = None if s.time_budget is None else FeasibleAfter(s.time_budget, FEASIBLE_VIOLATION)
-        self._stops = {kind: IterateStop(problem.n_w, ns + N * (ns + nv + 1 + 2 + self.n_clear), self.budget)
-                       for kind in ("cold", "warm")} if self.budget is not None else {}
-        self.solver = build_solver(problem, name, ipopt, functions, self._callback("cold"))
+        self.solver = build_solver(problem, name, ipopt, functions)
         # Warm start from the shifted previous plan and its multipliers (controller.switching): on 35
         # Mode III problems recorded in MuJoCo closed loops the median iteration count fell from 89
         # (Algorithm 2's guess, the cold solver) to 38 when started from the previous solution's own
@@ -201,8 +193,7 @@ class ModeIIIOCP:
         # options fail: the cold solver stays for that.
         warm = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
                 "mu_init": 1e-4}
-        self.warm_solver = build_solver(problem, name, {**ipopt, **warm, **s.ipopt_options}, functions,
-                                        self._callback("warm"))
+        self.warm_solver = build_solver(problem, name, {**ipopt, **warm, **s.ipopt_options}, functions)
         self.weights = np.array([1 + (N - i) / (N - 1) if N > 1 else 1.0 for i in range(1, N + 1)])
         # bounds
         lo, hi = p.input_bounds()
@@ -223,10 +214,6 @@ class ModeIIIOCP:
         self._ik = ca.nlpsol("wall_ik", "ipopt", {"x": q, "p": ca.vertcat(pose, q0), "f": ca.sumsqr(q - q0), "g": gap},
                              {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes", "max_iter": 50,
                                                              "tol": 1e-10}})
-
-    def _callback(self, kind: str) -> dict:
-        """nlpsol's options for the cold or warm solver: the time budget's iteration callback, if any."""
-        return {"iteration_callback": self._stops[kind]} if kind in self._stops else {}
 
     def limit_inputs(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Replace the input bounds (e.g. known-failed thrusters: both 0)."""
@@ -428,14 +415,10 @@ class ModeIIIOCP:
             ubw[self.nz - 3] = 0.0  # F_n of the first interval (its friction rows then zero F_t)
         P = self.parameters(h0, current)
         args = {"x0": np.clip(guess, lbw, ubw), "p": P, "lbx": lbw, "ubx": ubw, "lbg": self.lbg, "ubg": self.ubg}
-        solver, kind = self.solver, "cold"
+        solver = self.solver
         if duals is not None:
             args.update(lam_g0=duals[0], lam_x0=duals[1])
-            solver, kind = self.warm_solver, "warm"
-        stop = self._stops.get(kind)
-        if stop is not None:
-            stop.fired = False
-            self.budget.start(self.lbg, self.ubg)
+            solver = self.warm_solver
         t0 = time.perf_counter()
         r = solver(**args)
         elapsed = time.perf_counter() - t0
@@ -443,7 +426,7 @@ class ModeIIIOCP:
         w = np.asarray(r["x"]).ravel()
         hs, us, Fs = self.unpack(w)
         return ModeIIISolution(
-            SolverStatus.STOPPED if stop is not None and stop.fired else ipopt_status(st),
+            ipopt_status(st),
             hs,
             us,
             Fs,
