@@ -485,14 +485,14 @@ class SwitchingController:
         self._task, self._failed, self._last = task, task.failed_thrusters(0.0), None
         settings = replace(self.settings, failed_thrusters=self._failed,
                            current=tuple(float(c) for c in task.scene.current.at(0.0)))
-        told = max(float(task.latency), self.settings.assumed_latency)
-        self.latency = told if self.settings.plan_for_latency else 0.0
+        latency = max(float(task.latency), self.settings.assumed_latency)
+        self.latency = latency if self.settings.plan_for_latency else 0.0
         if self.latency > 0.0:
             s = settings
             longest = min(s.mode1.dt, s.mode3.dt)
             if self.latency > longest + 1e-12:
-                raise ValueError(f"task latency {self.latency} s is longer than Mode I's and III's interval; allowed: "
-                                 f"at most {longest} s, or plan_for_latency=false")
+                raise ValueError(f"latency {self.latency} s (told or assumed) is longer than Mode I's and III's interval; "
+                                 f"allowed: at most {longest} s, or plan_for_latency=false")
             m2 = s.mode2
             scale = max(1.0, self.latency / m2.dt_bounds[0])
             settings = replace(s, mode2=replace(m2, dt_nominal=max(m2.dt_nominal, self.latency),
