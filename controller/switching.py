@@ -491,8 +491,8 @@ class SwitchingController:
             s = settings
             longest = min(s.mode1.dt, s.mode3.dt)
             if self.latency > longest + 1e-12:
-                raise ValueError(f"latency {self.latency} s (told or assumed) is longer than Mode I's and III's interval; "
-                                 f"allowed: at most {longest} s, or plan_for_latency=false")
+                raise ValueError(f"latency {self.latency} s (told or assumed) is longer than Mode I's and III's "
+                                 f"interval; allowed: at most {longest} s, or plan_for_latency=false")
             m2 = s.mode2
             scale = max(1.0, self.latency / m2.dt_bounds[0])
             settings = replace(s, mode2=replace(m2, dt_nominal=max(m2.dt_nominal, self.latency),
