@@ -51,6 +51,9 @@ IK_NEWTON_ITERATIONS = 8  # onto_plane's Newton iterations before it asks IPOPT
 @dataclass(frozen=True)
 class ModeIIISettings:
     horizon: int = 5  # the paper uses N_p = 20 for all modes; 5 (0.5 s): see the module docstring
+    # intervals while some thruster lives (not known-failed); None: `horizon`. The switching NMPC
+    # picks its Mode III problem by this rule (SwitchingNMPC.ocp3)
+    thrust_horizon: int | None = None
     dt: float = 0.1  # s
     friction: float = 0.5  # the controller's friction coefficient mu [-]
     friction_smoothing: float = 0.01  # m/s, delta

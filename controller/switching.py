@@ -139,7 +139,7 @@ class SwitchingNMPC:
         self._hooked("certificate", self.feasibility.problem)
         self._hold = BrakingPolicy(model, JointHold(stiffness=30.0, damping=3.0))
         self._mode2: dict[int, ModeIIOCP] = {}
-        self._mode3: dict[int, ModeIIIOCP] = {}
+        self._mode3: dict[tuple[int, int], ModeIIIOCP] = {}  # by (plane, horizon)
         self.set_failed_thrusters(settings.failed_thrusters)
         if settings.switching:
             for plane in range(len(self.planes)):  # no assembly stall at the first switch, nor at a new N_p
@@ -194,11 +194,16 @@ class SwitchingNMPC:
         return self._mode2[plane]
 
     def ocp3(self, plane: int) -> ModeIIIOCP:
-        if plane not in self._mode3:
-            ocp = self._hooked("mode3", ModeIIIOCP(self.model, self.planes, plane, self.settings.mode3))
+        """Mode III's problem against `plane`: over `mode3.thrust_horizon` intervals while some
+        thruster lives (if set), else over `mode3.horizon`."""
+        s, nt = self.settings.mode3, self.model.params.n_thrusters
+        live = bool(np.any(self.lo[:nt]) or np.any(self.hi[:nt]))
+        horizon = s.thrust_horizon if live and s.thrust_horizon is not None else s.horizon
+        if (plane, horizon) not in self._mode3:
+            ocp = self._hooked("mode3", ModeIIIOCP(self.model, self.planes, plane, replace(s, horizon=horizon)))
             ocp.limit_inputs(self.lo, self.hi)
-            self._mode3[plane] = ocp
-        return self._mode3[plane]
+            self._mode3[plane, horizon] = ocp
+        return self._mode3[plane, horizon]
 
     def _geometry(self, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         d = [np.asarray(self.model.distances(h, pl.normal, pl.offset)).ravel() for pl in self.planes]
@@ -411,7 +416,8 @@ class SwitchingNMPC:
 
     def _step_mode3(self, h: np.ndarray) -> _ModeStep:
         self._reported_mode = Mode.III
-        s, ocp = self.settings.mode3, self.ocp3(self.contact)
+        ocp = self.ocp3(self.contact)
+        s = ocp.settings
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
         if previous is not None:  # the Final Algorithm: the plan's recomputed states, shifted, from h
             us = np.vstack([previous.u[1:], previous.u[-1:]])

@@ -114,6 +114,27 @@ def test_contact_check_holds_mode_three_until_the_tip_is_on_the_plane(params, sc
     assert ctl.step(on, 0.0)[1].mode is Mode.III
 
 
+def test_mode_three_plans_over_its_thrust_horizon_only_while_a_thruster_lives(params, scene) -> None:
+    """mode3.thrust_horizon=3, the tip put on the wall by Wall_InvKin: with live thrusters Mode III's
+    step plans 3 intervals (its plan has 3 inputs and 4 states); once every thruster is known dead
+    the same step plans `mode3.horizon` (5) intervals, whose problem pins every thrust to 0."""
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, wall_approach(0.15, 0.2))
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    settings = SwitchingSettings()
+    ctl = SwitchingNMPC(model, scene.planes, ref, replace(settings, mode3=replace(settings.mode3, thrust_horizon=3)))
+    on = h.copy()
+    on[6:6 + params.n_joints] = ctl.ocp3(wall).onto_plane(h)
+    for failed, horizon in (((), 3), (tuple(range(params.n_thrusters)), 5)):
+        ctl.set_failed_thrusters(failed)
+        ctl.mode, ctl._reported_mode, ctl.contact = Mode.III, Mode.II, wall
+        u, info = ctl.step(on, 0.0)
+        assert info.mode is Mode.III and info.horizon == horizon
+        assert info.u_pred.shape[0] == horizon and info.h_pred.shape[0] == horizon + 1
+        if failed:
+            assert np.all(u[:params.n_thrusters] == 0.0)
+
+
 @pytest.mark.slow
 def test_the_deploy_deadline_skips_a_question_whose_answer_changes_nothing(params, scene) -> None:
     """On an unavoidable oblique approach (closest body 1 cm off the wall at 0.86 m/s, 30 deg: 1.1
