@@ -1,0 +1,2 @@
+#!/bin/sh
+./run.sh && ./run_measured.sh && ./run_nodelay.sh
