@@ -20,7 +20,9 @@ and, while every thruster is dead, `spin_weight` [s^2/rad^2] times the hull's sq
 squared angular and joint rates (without it the inputs and the posture are free once the hull
 separates, and IPOPT creeps along that valley). IPOPT stops at its acceptable level (dual
 infeasibility 1e-2, constraints 1e-5) after 3 such iterations. The horizon is 5 intervals (0.5 s)
-while every thruster is dead and 3 (0.3 s) while some thruster lives, not the paper's 20. Evidence: docs/decisions.md, 'Over 0.5 s' and 'J_III's hull-clearance term'.
+while every thruster is dead and 3 (0.3 s) while some thruster lives, not the paper's 20.
+Evidence: docs/decisions.md, 'Over 0.5 s', 'Over 0.3 s while a thruster lives' and 'J_III's
+hull-clearance term'.
 """
 
 from __future__ import annotations
