@@ -51,6 +51,9 @@ OPTIONS: dict[str, dict] = {
     "acceptable level dual 1e-3, constraints 1e-5, after 3": {
         "acceptable_tol": 1e-3, "acceptable_constr_viol_tol": 1e-5, "acceptable_iter": 3},
     "cap of 30 iterations": {"max_iter": 30},
+    "barrier from mu 1e-2 (cold; warm solves too)": {"mu_init": 1e-2},
+    "barrier from mu 1e-3 (cold; warm solves as their default)": {"mu_init": 1e-3},
+    "monotone barrier from mu 1e-2 (cold; warm solves too)": {"mu_strategy": "monotone", "mu_init": 1e-2},
 }
 
 
@@ -73,7 +76,8 @@ def _record_run(args: tuple[str, int, str, str]) -> list[dict]:
                       "current": np.zeros(3) if current is None else np.array(current),
                       "duals": None if duals is None else tuple(np.array(d) for d in duals),
                       "lo": e.ocp._lo_u.copy(), "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact,
-                      "settings": e.ocp.settings, "family": family, "seed": seed})
+                      "settings": e.ocp.settings, "family": family, "seed": seed,
+                      "iterations": e.solution.iterations, "usable": e.solution.status.usable})
 
     run(SCENARIOS[family], seed=seed, latency=latency,
         controller=SwitchingController(presets.resolve(preset).settings, recording))

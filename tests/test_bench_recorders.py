@@ -70,3 +70,25 @@ def test_mode2_recorder_records_warm_startable_problems() -> None:
     assert len(lam_x) == N * nz + ocp.ns + 1 and (len(lam_g) - ocp.ns - 1) % N == 0
     sol = ocp.solve(calls[0]["h0"], calls[0]["guess"], calls[0]["current"], calls[0]["duals"])
     assert sol.u.shape == us.shape
+
+
+@pytest.mark.slow
+def test_mode2_solver_recorder_replays_what_the_loop_solved() -> None:
+    """bench/mode2_solvers.py's recorder on the demo's run with a 50 ms delay the plant waits out
+    (deterministic): every problem carries the controller's Mode II settings, whose interval bounds
+    the latency scaled to (0.05, 0.1) s (SwitchingController.reset's rule), and replaying each with
+    those settings on a fresh problem gives the closed loop's own iteration count and outcome
+    (IPOPT is deterministic on the same inputs), which is what the benchmark's comparison needs."""
+    from controller.mode2 import ModeIIOCP
+    from controller.model import UVMSModel
+    from uvms import load_params, load_scene
+
+    bench = _load("mode2_solvers")
+    calls = bench._record_run(("wall-headon", 0, "switching", "0.05"))
+    assert calls and all(c["settings"].dt_bounds == pytest.approx((0.05, 0.1)) for c in calls)
+    scene = load_scene()
+    ocp = ModeIIOCP(UVMSModel(load_params(), scene.water), scene.planes, calls[0]["contact"], calls[0]["settings"])
+    for c in calls:
+        ocp.limit_inputs(c["lo"], c["hi"])
+        sol = ocp.solve(c["h0"], c["guess"], c["current"], c["duals"])
+        assert (sol.iterations, sol.status.usable) == (c["iterations"], c["usable"])
