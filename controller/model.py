@@ -49,6 +49,9 @@ class ModelOptions:
     added_mass: bool = True
     drag: bool = True
     rotor_inertia: bool = True
+    # the joints' viscous friction, the parameter file's `joint_damping` [N m s/rad] (the plant's
+    # gearbox friction; not in the paper's model)
+    joint_damping: bool = False
     abs_smoothing: float = 1e-4  # m/s or rad/s: |x| ~ sqrt(x^2 + s^2) in the drag laws (smooth NLPs)
     # m: |w| ~ sqrt(w^2 + s^2) in the superellipsoids' support function (controller.superellipsoid): the
     # distances err on the safe side by <= 3 s (the default bodies: <= 0.9 mm). At controller.superellipsoid's
@@ -101,9 +104,9 @@ class UVMSModel:
         self.mass_matrix = ca.Function("M", [h], [M], ["h"], ["M"])
         self.rotation = ca.Function("R", [h], [kin["R"]], ["h"], ["R"])
         self.generalized_forces = ca.Function("Q", args, list(terms.values()), names, list(terms))
-        self.bias = ca.Function("bias", [h, vc, ac], [-(terms["coriolis"] + terms["gravity"] + terms["buoyancy"]
-                                                          + terms["added_mass"] + terms["froude_krylov"]
-                                                          + terms["drag"])], ["h", "vc", "ac"], ["bias"])
+        inputs = ("thrust", "joint_torque", "contact")
+        passive = sum((v for k, v in terms.items() if k not in inputs), ca.SX.zeros(self.n_speeds))
+        self.bias = ca.Function("bias", [h, vc, ac], [-passive], ["h", "vc", "ac"], ["bias"])
         self.ee_pose = ca.Function("ee_pose", [h], [kin["x_ee"], kin["R_ee"]], ["h"], ["x_ee", "R_ee"])
         self.jacobian_ee = ca.Function("Jv", [h], [kin["Jv"]], ["h"], ["Jv"])
         self.link_poses = ca.Function("link_poses", [h], kin["link_x"] + kin["link_R"])
@@ -205,6 +208,9 @@ class UVMSModel:
         if o.rotor_inertia:
             for k, lk in enumerate(p.arm.links):
                 M[6 + k, 6 + k] += lk.rotor_inertia
+        if o.joint_damping:
+            terms["joint_damping"] = ca.vertcat(ca.SX.zeros(6), -ca.DM([lk.joint_damping for lk in p.arm.links])
+                                                * qd)
         n_thr = p.n_thrusters
         terms["thrust"] = ca.vertcat(ca.DM(p.allocation_matrix()) @ u[:n_thr], ca.SX.zeros(n))
         terms["joint_torque"] = ca.vertcat(ca.SX.zeros(6), u[n_thr:])

@@ -34,7 +34,7 @@ from controller.feasibility import Certificate, CertificateSettings, Feasibility
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
-from controller.model import UVMSModel, water
+from controller.model import ModelOptions, UVMSModel, water
 from controller.protocol import StepInfo, Task
 from controller.rollouts import BrakingPolicy, JointHold, simulate
 from controller.transcription import tip_gap
@@ -87,6 +87,9 @@ class SwitchingSettings:
     # s: with plan_for_latency, plan for at least this delay when the task tells less (a measured delay,
     # which a task cannot tell in advance, is told as 0)
     assumed_latency: float = 0.0
+    # the controller's model with the joints' viscous friction of the parameter file (ModelOptions.
+    # joint_damping; the paper's model has none)
+    model_joint_damping: bool = False
 
 
 @dataclass(frozen=True)
@@ -487,7 +490,7 @@ class SwitchingController:
         self._last: tuple[np.ndarray, np.ndarray, float, bool] | None = None  # h, u, t, whether observed free
 
     def reset(self, task: Task) -> None:
-        model = UVMSModel(task.params, task.scene.water)
+        model = UVMSModel(task.params, task.scene.water, ModelOptions(joint_damping=self.settings.model_joint_damping))
         self._task, self._failed, self._last = task, task.failed_thrusters(0.0), None
         settings = replace(self.settings, failed_thrusters=self._failed,
                            current=tuple(float(c) for c in task.scene.current.at(0.0)))
