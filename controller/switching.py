@@ -91,6 +91,10 @@ class SwitchingSettings:
     # joint_damping; the paper's model has none)
     model_joint_damping: bool = False
 
+    def model_options(self) -> ModelOptions:
+        """The options of the model this controller plans on."""
+        return ModelOptions(joint_damping=self.model_joint_damping)
+
 
 @dataclass(frozen=True)
 class SolveEvent:
@@ -490,7 +494,7 @@ class SwitchingController:
         self._last: tuple[np.ndarray, np.ndarray, float, bool] | None = None  # h, u, t, whether observed free
 
     def reset(self, task: Task) -> None:
-        model = UVMSModel(task.params, task.scene.water, ModelOptions(joint_damping=self.settings.model_joint_damping))
+        model = UVMSModel(task.params, task.scene.water, self.settings.model_options())
         self._task, self._failed, self._last = task, task.failed_thrusters(0.0), None
         settings = replace(self.settings, failed_thrusters=self._failed,
                            current=tuple(float(c) for c in task.scene.current.at(0.0)))

@@ -119,7 +119,8 @@ def build_piece(piece: Piece) -> str:
     if piece.kind == "reset":
         presets.build(resolved).reset(task_of(piece.scenario, params, scene))
         return piece.label()
-    model = UVMSModel(params, scene.water)
+    options = getattr(s, "model_options", None)
+    model = UVMSModel(params, scene.water, options()) if options is not None else UVMSModel(params, scene.water)
     if piece.kind == "model":
         task = task_of(piece.scenario, params, scene)
         h0, u = task.h0, BrakingPolicy(model)(task.h0, task.h0[6:6 + params.n_joints])
