@@ -55,7 +55,7 @@ class ModeIIISettings:
     horizon: int = 5  # the paper uses N_p = 20 for all modes; 5 (0.5 s): see the module docstring
     # intervals while some thruster lives (not known-failed); None: `horizon`. The switching NMPC
     # picks its Mode III problem by this rule (SwitchingNMPC.ocp3). Over 0.3 s Mode III answers
-    # within 50 ms far more often (strict real time: 57/72 vs 43/72, Mode III late 11 % vs 44 %),
+    # within 50 ms far more often (strict real time: 57/72 vs 43/72, Mode III late 11 % vs 43 %),
     # but with every thruster dead it cannot hold the hull off (experiments/realtime_mode3_thrust,
     # experiments/realtime_mode3_short)
     thrust_horizon: int | None = 3

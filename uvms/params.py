@@ -89,7 +89,7 @@ class Link:
     joint_range: np.ndarray  # (2,) rad
     torque_limit: float  # N m, symmetric
     rotor_inertia: float  # kg m^2, motor inertia reflected through the gearbox (joint armature)
-    joint_damping: float  # N m s/rad, plant only
+    joint_damping: float  # N m s/rad, the plant's (the controller's model with ModelOptions.joint_damping)
     length: float  # m
     radius: float  # m
     mass: float  # kg

@@ -17,7 +17,7 @@ import multiprocessing
 import os
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from tqdm import tqdm
@@ -132,8 +132,9 @@ def build_piece(piece: Piece) -> str:
         FeasibilityTest(model, scene.planes, s.mode1, s.certificate)
     elif piece.kind == "mode2":
         ModeIIOCP(model, scene.planes, piece.plane, s.mode2).prepare_guesses(s.mode2.horizon)
-    else:
-        ModeIIIOCP(model, scene.planes, piece.plane, s.mode3)
+    else:  # both of its horizons: with every thruster dead and with some alive (SwitchingNMPC.ocp3)
+        for horizon in {s.mode3.horizon, s.mode3.thrust_horizon or s.mode3.horizon}:
+            ModeIIIOCP(model, scene.planes, piece.plane, replace(s.mode3, horizon=horizon))
     return piece.label()
 
 
