@@ -2,9 +2,13 @@
 
 Prints, for each Mode II step, the tip's gap to the contact plane at the measured state and at the
 end of the plan re-simulated by the model's RK4, and, at each hand-over check, the gap at the
-state the check reads (the predicted one under a latency) and whether the tip counts as short."""
+state the check reads (the predicted one under a latency) and whether the tip counts as short; and
+the joints: measured, planned from (the predicted state under a latency) and to, their rates and
+the step's torques."""
 
 import sys
+
+import numpy as np
 
 from controller import switching
 from controller.transcription import tip_gap
@@ -25,10 +29,14 @@ def checked(self, h):
 def traced(self, h, t, ahead=None):
     u, info = step(self, h, t, ahead)
     if info.mode.value == "II" and info.h_pred is not None:
-        plane = self.planes[self.contact]
+        plane, n = self.planes[self.contact], self.model.n_joints
         now, end = float(tip_gap(self.model, h, plane)), float(tip_gap(self.model, info.h_pred[-1], plane))
         print(f"{t:.3f} Mode II N={info.horizon} dt={info.dt:.3f} tip gap now {now:.3f} m, at the plan's end "
               f"{end:.3f} m ({info.status.value})")
+        start = h if ahead is None else ahead[0]
+        print(f"   joints [rad]: now {np.round(h[6:6 + n], 2)}, planned from {np.round(start[6:6 + n], 2)} to "
+              f"{np.round(info.h_pred[-1][6:6 + n], 2)}; rates now {np.round(h[-n:], 1)} rad/s; "
+              f"torques {np.round(u[-n:], 1)} N m")
     return u, info
 
 
