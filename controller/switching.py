@@ -164,6 +164,7 @@ class SwitchingNMPC:
         self._reported_mode = Mode.I
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
+        self._deploy: tuple[ModeIIOCP, np.ndarray, tuple] | None = None  # the deadline's deploy rollout this step
 
     def _hooked(self, kind: str, ocp: Any) -> Any:
         """The problem with its solve reported to `on_solve` (unchanged without a hook)."""
@@ -266,7 +267,7 @@ class SwitchingNMPC:
             else:  # Mode II afresh: Algorithm 1's entry
                 self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         t0 = time.perf_counter()
-        self._switch, self._ocp_time = None, 0.0
+        self._switch, self._ocp_time, self._deploy = None, 0.0, None
         if self.mode is Mode.I:
             out = self._step_mode1(h_a, t_a)
         elif self.mode is Mode.II:
@@ -388,7 +389,9 @@ class SwitchingNMPC:
         close = [ocp2.protected_clearance(x) < self.feasibility.settings.distance_margin for x in cert.rollout[1:]]
         if not any(close):
             return False
-        _, us, dt = ocp2.deploy_guess(h, self.settings.mode2.horizon, self.current)
+        guess = ocp2.deploy_guess(h, self.settings.mode2.horizon, self.current)
+        self._deploy = (ocp2, h, guess)  # Mode II's entry guess if this step switches (_step_mode2)
+        _, us, dt = guess
         return s.dt * (1 + close.index(True)) <= len(us) * dt + s.dt + self.settings.deadline_lead
 
     def _step_mode2(self, h: np.ndarray, cert: Certificate | None = None) -> _ModeStep:
@@ -400,8 +403,10 @@ class SwitchingNMPC:
             us, dt = shifted_guess(previous, N)
             guess = (self._resimulate(h, us, dt), us, dt)
             duals = ocp.shifted_duals(previous, N)
-        else:
-            guess = ocp.deploy_guess(h, N, self.current)
+        else:  # the deploy rollout, unless the deadline computed it for this state in this step
+            ready = (self._deploy is not None and self._deploy[0] is ocp and self._deploy[1] is h
+                     and N == self.settings.mode2.horizon)
+            guess = self._deploy[2] if ready else ocp.deploy_guess(h, N, self.current)
             N = len(guess[1])
         sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time

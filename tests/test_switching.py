@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from controller.mode1 import ModeISettings, SolverStatus
+from controller.mode2 import ModeIIOCP
 from controller.model import UVMSModel
 from controller.sqp import SQPSettings
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
@@ -151,8 +152,18 @@ def test_the_deploy_deadline_skips_a_question_whose_answer_changes_nothing(param
 
     model = UVMSModel(params, scene.water)
     h, ref = approach(FeasibilityTest(model, scene.planes), 0.01, 30.0, 1.1 * OBLIQUE_1CM_THRESHOLD)
-    (u_skip, skip), (u_asked, asked) = [SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(
-        deploy_deadline=deadline)).step(h, 0.0) for deadline in (True, False)]
+    rollouts = []
+    original = ModeIIOCP.deploy_guess
+
+    def counted(self, *args, **kwargs):
+        rollouts.append(args[1])
+        return original(self, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(ModeIIOCP, "deploy_guess", counted)
+        (u_skip, skip), (u_asked, asked) = [SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(
+            deploy_deadline=deadline)).step(h, 0.0) for deadline in (True, False)]
+    assert len(rollouts) == 2  # once in each step: Mode II's entry reuses the deadline's deploy rollout
     assert skip.mode is asked.mode is Mode.II
     assert skip.switch is SwitchReason.DEPLOY_DEADLINE
     assert asked.switch in (SwitchReason.F_EMPTY, SwitchReason.SOLVER_FAILURE)
