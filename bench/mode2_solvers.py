@@ -34,7 +34,7 @@ import numpy as np
 from tqdm import tqdm
 
 from controller.mode2 import ModeIIOCP
-from controller.model import UVMSModel
+from controller.model import ModelOptions, UVMSModel
 from uvms import load_params, load_scene
 
 OUT = Path(__file__).parent / "results"
@@ -76,7 +76,7 @@ def _record_run(args: tuple[str, int, str, str]) -> list[dict]:
                       "current": np.zeros(3) if current is None else np.array(current),
                       "duals": None if duals is None else tuple(np.array(d) for d in duals),
                       "lo": e.ocp._lo_u.copy(), "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact,
-                      "settings": e.ocp.settings, "family": family, "seed": seed,
+                      "settings": e.ocp.settings, "model_options": e.ocp.model.options, "family": family, "seed": seed,
                       "iterations": e.solution.iterations, "usable": e.solution.status.usable})
 
     run(SCENARIOS[family], seed=seed, latency=latency,
@@ -112,8 +112,12 @@ def evaluate() -> None:
         raise SystemExit(f"{PROBLEMS} is missing; allowed: run `python bench/mode2_solvers.py --record 2` first")
     data = pickle.loads(PROBLEMS.read_bytes())
     scene = load_scene()
-    model = UVMSModel(load_params(), scene.water)
+    params = load_params()
     posed = data["problems"]
+    models = {p.get("model_options", ModelOptions()) for p in posed}
+    if len(models) != 1:
+        raise SystemExit(f"{PROBLEMS} mixes the controller models {models}; allowed: one")
+    model = UVMSModel(params, scene.water, models.pop())
     checks: dict[int, ModeIIOCP] = {}
     for p in posed:
         checks.setdefault(p["contact"], ModeIIOCP(model, scene.planes, p["contact"], p["settings"]))

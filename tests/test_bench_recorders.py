@@ -78,7 +78,8 @@ def test_mode2_solver_recorder_replays_what_the_loop_solved() -> None:
     (deterministic): every problem carries the controller's Mode II settings, whose interval bounds
     the latency scaled to (0.05, 0.1) s (SwitchingController.reset's rule), and replaying each with
     those settings on a fresh problem gives the closed loop's own iteration count and outcome
-    (IPOPT is deterministic on the same inputs), which is what the benchmark's comparison needs."""
+    (IPOPT is deterministic on the same inputs) on the recorded controller's model, which is what
+    the benchmark's comparison needs."""
     from controller.mode2 import ModeIIOCP
     from controller.model import UVMSModel
     from uvms import load_params, load_scene
@@ -87,7 +88,8 @@ def test_mode2_solver_recorder_replays_what_the_loop_solved() -> None:
     calls = bench._record_run(("wall-headon", 0, "switching", "0.05"))
     assert calls and all(c["settings"].dt_bounds == pytest.approx((0.05, 0.1)) for c in calls)
     scene = load_scene()
-    ocp = ModeIIOCP(UVMSModel(load_params(), scene.water), scene.planes, calls[0]["contact"], calls[0]["settings"])
+    model = UVMSModel(load_params(), scene.water, calls[0]["model_options"])
+    ocp = ModeIIOCP(model, scene.planes, calls[0]["contact"], calls[0]["settings"])
     for c in calls:
         ocp.limit_inputs(c["lo"], c["hi"])
         sol = ocp.solve(c["h0"], c["guess"], c["current"], c["duals"])
