@@ -210,7 +210,7 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene, 
     from controller.protocol import Task
     from controller.switching import SwitchingController
 
-    model = UVMSModel(params, scene.water)
+    model = UVMSModel(params, scene.water, SwitchingSettings().model_options())  # the controller's own model
     h, ref = initial_state(params, wall_approach(1.0, 0.3))
     from uvms.scene import Current
     water = scene.with_current(Current.constant((0.1, 0.0, 0.0)))
