@@ -239,6 +239,13 @@ class ModeIIIOCP:
             self._twins[sign] = twin
         return self._twins[sign]
 
+    def prepare_twins(self) -> None:
+        """Build both pitched twins now (precompilation), not inside the first step pitched past
+        `regular_pitch` (tens of seconds on a cold cache)."""
+        if self.settings.regular_pitch is not None:
+            for sign in (1.0, -1.0):
+                self._twin(sign)
+
     def _angles_to(self, w: np.ndarray, source: UVMSModel, target: UVMSModel) -> np.ndarray:
         """A primal vector with every node's Euler angles re-expressed from source's to target's."""
         w, nz, ns = np.array(w, float), self.nz, self.ns

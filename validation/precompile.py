@@ -134,7 +134,7 @@ def build_piece(piece: Piece) -> str:
         ModeIIOCP(model, scene.planes, piece.plane, s.mode2).prepare_guesses(s.mode2.horizon)
     else:  # both of its horizons: with every thruster dead and with some alive (SwitchingNMPC.ocp3)
         for horizon in {s.mode3.horizon, s.mode3.thrust_horizon or s.mode3.horizon}:
-            ModeIIIOCP(model, scene.planes, piece.plane, replace(s.mode3, horizon=horizon))
+            ModeIIIOCP(model, scene.planes, piece.plane, replace(s.mode3, horizon=horizon)).prepare_twins()
     return piece.label()
 
 
