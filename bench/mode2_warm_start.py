@@ -68,7 +68,8 @@ def _record_run(args: tuple[str, int]) -> list[dict]:
         calls.append({"h0": np.array(h0), "guess": (np.array(guess[0]), np.array(guess[1]), float(guess[2])),
                       "current": np.zeros(3) if current is None else np.array(current),
                       "duals": tuple(np.array(d) for d in duals), "lo": e.ocp._lo_u.copy(), "hi": e.ocp._hi_u.copy(),
-                      "contact": e.ocp.contact, "family": family, "seed": seed})
+                      "contact": e.ocp.contact, "model_options": e.ocp.model.options, "family": family,
+                      "seed": seed})
 
     settings = SwitchingSettings()
     settings = replace(settings, mode2=replace(settings.mode2, warm_start=False))
@@ -98,7 +99,10 @@ def evaluate() -> None:
     data = pickle.loads(PROBLEMS.read_bytes())
     problems = data["problems"]
     scene = load_scene()
-    model = UVMSModel(load_params(), scene.water)
+    models = {p.get("model_options") for p in problems}
+    if len(models) != 1 or None in models:
+        raise SystemExit(f"{PROBLEMS} does not hold one controller model's options; allowed: record again")
+    model = UVMSModel(load_params(), scene.water, models.pop())
     n = len(problems)
     results: dict[str, list[tuple]] = {}
     for name, opts in tqdm(VARIANTS.items(), desc="variants", unit="variant"):

@@ -27,9 +27,11 @@ Solve times are wall clock on a shared machine; the iterations are what the opti
 from __future__ import annotations
 
 import argparse
+import json
 import platform
 import sys
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict
 from pathlib import Path
 
 import casadi as ca
@@ -37,7 +39,7 @@ import numpy as np
 from tqdm import tqdm
 
 from controller.mode3 import ModeIIIOCP, ModeIIISettings
-from controller.model import UVMSModel
+from controller.model import ModelOptions, UVMSModel
 from uvms import load_params, load_scene
 from uvms.scene import Scene
 
@@ -92,7 +94,8 @@ def record_problems(scenario, seed: int, preset: str) -> list[dict]:
         calls.append({"h0": np.array(h0), "guess": np.array(guess), "current": np.zeros(3) if current is None
                       else np.array(current), "lam_g": None if duals is None else np.array(duals[0]),
                       "lam_x": None if duals is None else np.array(duals[1]), "lo": e.ocp._lo_u.copy(),
-                      "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact})
+                      "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact,
+                      "model_options": json.dumps(asdict(e.ocp.model.options))})
 
     run(scenario, seed=seed, controller=SwitchingController(presets.resolve(preset).settings, recording))
     return calls
@@ -119,7 +122,10 @@ def load_problems() -> tuple[dict[str, np.ndarray], np.ndarray, UVMSModel, Scene
         raise SystemExit(f"{PROBLEMS} is missing; allowed: run `python bench/mode3_solvers.py --record 2` first")
     data = dict(np.load(PROBLEMS))
     scene = load_scene()
-    return data, np.isnan(data["lam_g"][:, 0]), UVMSModel(load_params(), scene.water), scene
+    if "model_options" not in data or len(set(data["model_options"])) != 1:
+        raise SystemExit(f"{PROBLEMS} does not hold one controller model's options; allowed: record again")
+    options = ModelOptions(**json.loads(str(data["model_options"][0])))
+    return data, np.isnan(data["lam_g"][:, 0]), UVMSModel(load_params(), scene.water, options), scene
 
 
 def recorded(data: dict[str, np.ndarray]) -> str:

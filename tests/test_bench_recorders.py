@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
 
 import numpy as np
@@ -36,15 +37,20 @@ def test_min_violation_recorder_records_replayable_problems() -> None:
 def test_mode3_recorder_records_mode_three_problems() -> None:
     """bench/mode3_solvers.py's recorder on the demo's first 0.8 s (Mode III comes within 0.5 s):
     every recorded problem is a Mode III one (its contact plane is the wall, index 0 of the scene),
-    with a primal start and input bounds."""
+    with a primal start, input bounds and the options of the model the controller planned on (the
+    replay's model)."""
     bench = _load("mode3_solvers")
-    from dataclasses import replace
+    from dataclasses import asdict, replace
 
     import validation.scenarios as scenarios
 
     original = scenarios.SCENARIOS["wall-headon"]
     calls = bench.record_problems(replace(original, duration=0.8), 0, "switching")
     assert calls and all(c["contact"] == 0 and np.all(c["lo"] <= c["hi"]) for c in calls)
+    from validation import presets
+
+    controllers = presets.resolve("switching").settings.model_options()
+    assert {c["model_options"] for c in calls} == {json.dumps(asdict(controllers))}
 
 
 @pytest.mark.slow
