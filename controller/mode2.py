@@ -3,8 +3,7 @@ obstacle at the end of the horizon, every body kept off every plane, with the ti
 
 Variables per stage: x_k = (h_k, dt_k), v_k = (u_k, a_k), with dt_k+1 = dt_k (the one timestep carried
 as a state keeps the NLP stage-structured: controller.stage_nlp). Constraints: the midpoint dynamics
-over dt (controller.transcription), dt_min <= dt <= dt_max, input and joint bounds (with
-`joint_speed_bound`, the joints' rates too), the clearances of
+over dt (controller.transcription), dt_min <= dt <= dt_max, input and joint bounds, the clearances of
 controller.transcription.clearances (the end-effector may touch the contact plane only) and, at the
 last node, the tip on the contact plane (eq. EE_Wall_Dist_Constraint). Objective (eq. Obj2):
 1/(d_0,N + eps) + w |V_ee,N| with the hull's distance d_0 and the end-effector's velocity at the last
@@ -83,7 +82,6 @@ class ModeIISettings:
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
     warm_start: bool = True  # from the previous solve's multipliers too, with a small initial barrier
-    joint_speed_bound: bool = False  # |q_dot| <= each link's speed_limit (parameter file) at every planned node
 
 
 @dataclass(frozen=True)
@@ -148,7 +146,6 @@ class ModeIIOCP:
         self._lo_u, self._hi_u = p.input_bounds()
         self._q_lo = np.array([lk.joint_range[0] for lk in p.arm.links])
         self._q_hi = np.array([lk.joint_range[1] for lk in p.arm.links])
-        self._qd_hi = np.array([lk.speed_limit if s.joint_speed_bound else np.inf for lk in p.arm.links])
         self.reach = ReachPosture(model, plane)
         self.deploy = BrakingPolicy(model, JointHold(s.deploy_stiffness, s.deploy_damping))
         self._gap_maps: dict[int, NumpyCall] = {}
@@ -252,7 +249,6 @@ class ModeIIOCP:
             if k > 0:
                 lbw[i + 6:i + 6 + self.model.n_joints] = self._q_lo
                 ubw[i + 6:i + 6 + self.model.n_joints] = self._q_hi
-                lbw[i + nv + 6:i + ns], ubw[i + nv + 6:i + ns] = -self._qd_hi, self._qd_hi
             if k < N:
                 lbw[i + ns + 1:i + ns + 1 + nu], ubw[i + ns + 1:i + ns + 1 + nu] = self._lo_u, self._hi_u
         nc = ns + nv + 1 + self.n_clear

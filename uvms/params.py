@@ -90,7 +90,6 @@ class Link:
     torque_limit: float  # N m, symmetric
     rotor_inertia: float  # kg m^2, motor inertia reflected through the gearbox (joint armature)
     joint_damping: float  # N m s/rad, the plant's (the controller's model with ModelOptions.joint_damping)
-    speed_limit: float  # rad/s, |q_dot| in Mode II's plans with ModeIISettings.joint_speed_bound (not the plant's)
     length: float  # m
     radius: float  # m
     mass: float  # kg
@@ -374,7 +373,6 @@ def _link(name: str, t: _Table) -> Link:
         torque_limit=t.scalar("torque_limit", "N*m", min_value=0.0, strict_min=True),
         rotor_inertia=t.scalar("rotor_inertia", "kg*m^2", min_value=0.0),
         joint_damping=t.scalar("joint_damping", "N*m*s/rad", min_value=0.0),
-        speed_limit=t.scalar("speed_limit", "rad/s", min_value=0.0, strict_min=True),
         length=t.scalar("length", "m", min_value=0.0, strict_min=True),
         radius=t.scalar("radius", "m", min_value=0.0, strict_min=True),
         mass=t.scalar("mass", "kg", min_value=0.0, strict_min=True),
