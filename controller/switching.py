@@ -21,7 +21,6 @@ paper and their evidence: docs/decisions.md.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -92,10 +91,6 @@ class SwitchingSettings:
     # joint_damping; the paper's model has none): strict 50 ms 109/144 vs 82/144, hull contacts 18
     # vs 39 (experiments/model_joint_damping)
     model_joint_damping: bool = True
-    # a Mode I step that computed Mode II's deploy rollout (the braking rollout nears a plane) commits
-    # to that rollout's inputs, begun one period late, should its next answers come too late (strict
-    # real time), not to the rest of its own plan
-    commit_deploy: bool = False
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""
@@ -129,7 +124,6 @@ class _ModeStep:
     contact_force: np.ndarray | None = None  # (N, 3) obstacle frame [N] (Mode III)
     certificate: Certificate | None = None
     impact_force: float | None = None  # N (Mode II's plan)
-    committed: np.ndarray | None = None  # (M, nu) one row per dt (StepInfo.committed)
 
 
 class SwitchingNMPC:
@@ -287,7 +281,7 @@ class SwitchingNMPC:
                         dt=out.dt, horizon=out.horizon, h_pred=out.h_pred, u_pred=out.u_pred,
                         contact_force=out.contact_force, contact_plane=self.contact, distances=distances,
                         closing_speeds=closing, certificate=out.certificate, switch=self._switch,
-                        impact_force=out.impact_force, committed=out.committed)
+                        impact_force=out.impact_force)
         return self.last_u, info
 
     def _step_mode1(self, h: np.ndarray, t: float) -> _ModeStep:
@@ -346,30 +340,17 @@ class SwitchingNMPC:
             fresh.clear()
         sol = fresh["sol"] if "sol" in fresh else ocp.solve(h, ref, self.current, previous=previous, guess=guess)
         self._ocp_time = sol.solve_time
-        committed = self._committed_deploy(s.dt)
         if sol.status.usable:
             self._plan = sol
             hp = fresh["h"] if "h" in fresh else self._resimulate(h, sol.u, s.dt)
             return _ModeStep(sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon, hp, sol.u,
-                             certificate=cert, committed=committed)
+                             certificate=cert)
         if previous is not None:
             self._plan = None
             return _ModeStep(previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
-                             previous.h[1:], previous.u[1:], certificate=cert, committed=committed)
+                             previous.h[1:], previous.u[1:], certificate=cert)
         hs, us = self.feasibility.braking_rollout(h, self.current)
-        return _ModeStep(us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, certificate=cert,
-                         committed=committed)
-
-    def _committed_deploy(self, period: float) -> np.ndarray | None:
-        """With `commit_deploy`, when this step computed Mode II's deploy rollout: its inputs resampled
-        at `period` [s] (row j: the rollout's input at the middle of its j-th period), for StepInfo.
-        committed; else None."""
-        if not self.settings.commit_deploy or self._deploy is None:
-            return None
-        _, _, (_, us, dt) = self._deploy
-        rows = math.ceil(len(us) * dt / period - 1e-9)
-        return np.clip(us[np.minimum(((np.arange(rows) + 0.5) * period / dt).astype(int), len(us) - 1)],
-                       self.lo, self.hi)
+        return _ModeStep(us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, certificate=cert)
 
     def _may_release(self, h: np.ndarray, closing: np.ndarray) -> bool:
         """Mode III -> I: the hull moves away from the contact plane faster than `separation_speed`

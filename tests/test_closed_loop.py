@@ -164,8 +164,8 @@ class _Planner:
     bound), its first row as the input, with a 0.1 s period; its step advances the loop's clock by
     0.08 s at the steps in `slow` and by 1 ms otherwise."""
 
-    def __init__(self, clock: list[float], slow: set[int], commits: bool = False):
-        self.clock, self.slow, self.k, self.told, self.commits = clock, slow, 0, [], commits
+    def __init__(self, clock: list[float], slow: set[int]):
+        self.clock, self.slow, self.k, self.told = clock, slow, 0, []
 
     def late(self, u) -> None:
         self.told.append((self.k - 1, np.array(u, float)))
@@ -176,17 +176,11 @@ class _Planner:
     def plan(self, k: int) -> np.ndarray:
         return np.array([np.full(self.n, 0.01 * (10 * k + row)) for row in range(3)])
 
-    def commitment(self, k: int) -> np.ndarray:
-        """With `commits`, what step k commits to instead of its plan's later rows (two rows of -0.01
-        (10 k + row + 1))."""
-        return -self.plan(k)[1:]
-
     def step(self, h, t):
         from controller.protocol import StepInfo
         self.clock[0] += 0.08 if self.k in self.slow else 0.001
-        plan, k, self.k = self.plan(self.k), self.k, self.k + 1
-        committed = self.commitment(k) if self.commits else None
-        return plan[0], StepInfo(t=t, dt=0.1, mode="plan", u_pred=plan, committed=committed)
+        plan, self.k = self.plan(self.k), self.k + 1
+        return plan[0], StepInfo(t=t, dt=0.1, mode="plan", u_pred=plan)
 
 
 @pytest.mark.parametrize("strict", [True, False])
@@ -229,30 +223,6 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, monkey
     assert [k for k, _ in ctl.told] == ([2, 3, 4] if strict else [])
     for (k, told), (_, applied) in zip(ctl.told, late, strict=False):
         np.testing.assert_array_equal(told, applied, err_msg=f"told after step {k}")
-
-
-def test_strict_real_time_applies_what_a_step_committed_to_instead_of_its_plan(monkeypatch) -> None:
-    """As above, strict, with every step's StepInfo.committed (C_k) differing from its plan's later
-    rows: the overruns of steps 2-4 get C_1's rows, then its last row again, never P_1's; step 5's
-    own plan applies when it is on time. Oracle: the committed rows themselves (Plant.step's log)."""
-    import validation.closed_loop as loop
-    from uvms_mj.plant import Plant
-
-    clock, calls, step = [0.0], [], Plant.step
-
-    def logged(self, u, duration):
-        calls.append((round(self.t, 6), np.array(u, float)))
-        return step(self, u, duration)
-
-    monkeypatch.setattr(Plant, "step", logged)
-    monkeypatch.setattr(loop.time, "perf_counter", lambda: clock[0])
-    ctl = _Planner(clock, slow={2, 3, 4}, commits=True)
-    sc = get("wall-headon").with_overrides({"duration": "0.6", "faults": "none", "current.velocity": "0,0,0"})
-    run(sc, controller=ctl, mismatch=NONE, latency="0.05:strict")
-    P, C = ctl.plan, ctl.commitment
-    applied = dict(calls)
-    for t, want in [(0.25, C(1)[0]), (0.35, C(1)[1]), (0.45, C(1)[1]), (0.55, P(5)[0])]:
-        np.testing.assert_array_equal(applied[t], want, err_msg=f"input at t = {t}")
 
 
 def test_overrides_parse_numbers_and_tuples() -> None:

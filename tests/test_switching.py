@@ -172,31 +172,6 @@ def test_the_deploy_deadline_skips_a_question_whose_answer_changes_nothing(param
     assert np.array_equal(u_skip, u_asked)
 
 
-def test_a_step_near_the_deploy_deadline_commits_to_the_deploy_rollout(params, scene) -> None:
-    """`commit_deploy`, on an oblique approach 10 cm off at 1.1 times the speed at which F empties
-    at 1 cm (validation.approaches): the braking rollout breaks the margin but the deadline does not
-    fire yet, so the step stays in Mode I and commits to Mode II's deploy rollout from the same
-    state. Oracle: that rollout computed independently (ModeIIOCP.deploy_guess): committed row j is
-    its input at time (j + 1/2) P, P Mode I's period, over the rollout's span; the step's own input
-    is the same to the bit as without the commitment, which commits to nothing else (None)."""
-    from controller.feasibility import FeasibilityTest
-    from validation.approaches import OBLIQUE_1CM_THRESHOLD, approach
-
-    model = UVMSModel(params, scene.water)
-    h, ref = approach(FeasibilityTest(model, scene.planes), 0.1, 30.0, 1.1 * OBLIQUE_1CM_THRESHOLD)
-    (u, info), (u_plain, plain) = [SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(
-        commit_deploy=commit)).step(h, 0.0) for commit in (True, False)]
-    assert info.mode is plain.mode is Mode.I and plain.committed is None
-    np.testing.assert_array_equal(u, u_plain)
-    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings())
-    _, us, dt = ctl.ocp2(ctl._closest_plane(info.certificate.rollout)).deploy_guess(h, ctl.settings.mode2.horizon)
-    period = ctl.settings.mode1.dt
-    times = (np.arange(info.committed.shape[0]) + 0.5) * period
-    assert times[-1] - period / 2 < len(us) * dt <= times[-1] + period / 2  # covers the rollout's span
-    np.testing.assert_array_equal(info.committed, np.clip(us[[min(int(t // dt), len(us) - 1) for t in times]],
-                                                          *params.input_bounds()))
-
-
 @pytest.mark.slow
 def test_every_solve_is_reported_to_the_hook(params, scene) -> None:
     """`on_solve`: every optimal-control solve of a step is reported once, with its problem and its

@@ -18,8 +18,7 @@ longer than L is an overrun, counted per mode (Summary.solve_time, StepRecord.ov
 Strict real time (":strict" after a number of seconds, `--strict`): an overrun's answer is
 discarded, as if its computation had been cut at L, and the input the controller committed in
 advance is applied instead for one period of its last accepted step: the next input of that step's
-plan (StepInfo.u_pred, whose first row is the input it returned; StepInfo.committed when the
-controller commits to something else), one further row per consecutive
+plan (StepInfo.u_pred, whose first row is the input it returned), one further row per consecutive
 overrun, and its last input held once the plan runs out (a controller without a plan: its last
 input). The controller is told through the protocol's optional `late(u)`, with the input applied.
 
@@ -257,8 +256,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
                 u, period = committed.take(u_prev)
                 if late is not None:
                     late(u.copy())
-                info = replace(info, dt=period, fallback=LATE, h_pred=None, u_pred=None, contact_force=None,
-                               committed=None)
+                info = replace(info, dt=period, fallback=LATE, h_pred=None, u_pred=None, contact_force=None)
             else:
                 committed.accept(info)
             dt = max(ts, round(info.dt / ts) * ts)
@@ -316,10 +314,7 @@ class Committed:
 
     def accept(self, info: StepInfo) -> None:
         """A step's answer is applied: its plan's later rows are what it commits to."""
-        if info.committed is not None:
-            plan = list(np.asarray(info.committed, float))
-        else:
-            plan = [] if info.u_pred is None else list(np.asarray(info.u_pred, float)[1:])
+        plan = [] if info.u_pred is None else list(np.asarray(info.u_pred, float)[1:])
         self.inputs, self.period = [np.asarray(row, float) for row in plan], float(info.dt)
 
     def take(self, last: np.ndarray) -> tuple[np.ndarray, float]:
