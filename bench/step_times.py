@@ -31,7 +31,7 @@ BUDGETS = (0.02, 0.05, 0.1)  # s
 # name: dotted overrides of the default preset
 VARIANTS: dict[str, dict] = {
     "default": {},
-    "Mode III over 0.5 s whatever the thrusters": {"mode3.thrust_horizon": "none"},
+    "the paper's model (without the joints' damping)": {"model_joint_damping": "false"},
 }
 
 
