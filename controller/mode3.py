@@ -16,8 +16,9 @@ as the hull's approach speed [m/s], relu smoothed at 1 cm/s (controller.transcri
 at 1 mm/s its curvature made the Hessian indefinite). Not in the paper: `clearance_weight` [1/s]
 times the hull's shortfall from `hull_clearance` (5 cm) to the contact plane, relu-smoothed at 1 cm,
 and, while every thruster is dead, `spin_weight` [s^2/rad^2] times the hull's squared angular rates
-(all three parameters of the compiled problem). Regularization: 1e-5 |u|^2, 1e-6 |F|^2 and 1e-3 of the
-squared angular and joint rates (without it the inputs and the posture are free once the hull
+and `strut_weight` [1/m^2] times the squared moment arm of the wall's push about the hull's centre
+of mass (all four parameters of the compiled problem). Regularization: 1e-5 |u|^2, 1e-6 |F|^2 and
+1e-3 of the squared angular and joint rates (without it the inputs and the posture are free once the hull
 separates, and IPOPT creeps along that valley). IPOPT stops at its acceptable level (dual
 infeasibility 1e-2, constraints 1e-5) after 3 such iterations. The horizon is 5 intervals (0.5 s)
 while every thruster is dead and 3 (0.3 s) while some thruster lives, not the paper's 20.
@@ -79,6 +80,9 @@ class ModeIIISettings:
     # 1 rad/s spin costs what a 0.05-0.1 m/s approach does. With live thrusters it cost wall-oblique
     # hull contacts, so it is 0 there (experiments/mode3_spin)
     spin_weight: float = 0.1
+    # 1/m^2, while every thruster is dead: on the squared distance from the hull's centre of mass to
+    # the contact normal's line through the tip (the moment arm by which the wall's push turns the hull)
+    strut_weight: float = 0.0
     hull_clearance: float = 0.05  # m: J_III also pays for the hull closer than this to the contact plane
     clearance_weight: float = 1.0  # 1/s, on that shortfall (the approach speed's weights are 1 to 2)
     clearance_smoothing: float = 0.01  # m, the shortfall's relu
@@ -117,16 +121,19 @@ def friction_rows(model: UVMSModel, Rw: np.ndarray, hm: ca.SX, F: ca.SX, s: Mode
 
 def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi: ca.SX, s: ModeIIISettings,
                clearance: ca.SX | float | None = None, weight: ca.SX | float | None = None,
-               spin: ca.SX | float | None = None) -> ca.SX:
+               spin: ca.SX | float | None = None, strut: ca.SX | float = 0.0) -> ca.SX:
     """J_III's stage term at the interval's end state h1 (stage weight wi), the hull's shortfall from
     `clearance` [m] weighted by `weight` [1/s], the hull's squared angular rates weighted by `spin`
-    [s^2/rad^2] (None: the settings'), and the regularization."""
+    [s^2/rad^2] (None: the settings'), the squared distance [m^2] from the hull's centre of mass to the
+    contact normal's line through the tip weighted by `strut` [1/m^2], and the regularization."""
     clearance = s.hull_clearance if clearance is None else clearance
     weight = s.clearance_weight if weight is None else weight
     spin = s.spin_weight if spin is None else spin
     d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
     d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
     rates = h1[model.n_speeds + 3 :]  # hull angular and joint rates
+    arm = ca.cross(model.ee_pose(h1)[0] - h1[:3] - model.attitude(h1) @ ca.DM(model.params.hull.com),
+                   ca.DM(plane.normal))
     return (
         wi * smooth_relu(-d0_dot, s.approach_smoothing)
         + weight * smooth_relu(clearance - d0, s.clearance_smoothing)
@@ -134,6 +141,7 @@ def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi
         + s.force_weight * ca.dot(F, F)
         + s.rate_weight * ca.dot(rates, rates)
         + spin * ca.dot(rates[:3], rates[:3])
+        + strut * ca.dot(arm, arm)
     )
 
 
@@ -155,9 +163,9 @@ class ModeIIIOCP:
             ca.SX.sym("a", nv),
             ca.SX.sym("F", 3),
         )
-        # h0, water, hull clearance and its weight, the spin weight, stage weight w_i
-        P = ca.SX.sym("P", ns + WATER + 3 + 1)
-        vc, wi = P[ns : ns + WATER], P[ns + WATER + 3]
+        # h0, water, hull clearance and its weight, the spin and strut weights, stage weight w_i
+        P = ca.SX.sym("P", ns + WATER + 4 + 1)
+        vc, wi = P[ns : ns + WATER], P[ns + WATER + 4]
         hm = (h + h1) / 2
         friction = friction_rows(model, self.Rw, hm, F, s)
         self._clearance = ca.Function("clear3", [h], [clearances(model, h, self.planes, contact)])
@@ -168,13 +176,14 @@ class ModeIIIOCP:
             friction,
             self._clearance(h1),
         )
-        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1], P[ns + WATER + 2])
+        cost = stage_cost(model, plane, h1, u, F, wi, s, P[ns + WATER], P[ns + WATER + 1], P[ns + WATER + 2],
+                          P[ns + WATER + 3])
         st = ca.vertcat(h, u, a, F, h1)
         problem = StageProblem(
             nx=ns,
             nv=nu + nv + 3,
             horizon=N,
-            np=ns + WATER + 3,
+            np=ns + WATER + 4,
             np_stage=1,
             cost=ca.Function("cost3", [st, P], [cost]),
             constraints=ca.Function("cons3", [st, P], [cons]),
@@ -312,15 +321,22 @@ class ModeIIIOCP:
     def spin_weight(self) -> float:
         """The hull's spin weight this solve uses [s^2/rad^2]: the settings' while every thruster is
         dead (known-failed: bounds 0), else 0."""
+        return self.settings.spin_weight if self._all_dead() else 0.0
+
+    def strut_weight(self) -> float:
+        """The strut's moment-arm weight this solve uses [1/m^2]: the settings' while every thruster is
+        dead, else 0."""
+        return self.settings.strut_weight if self._all_dead() else 0.0
+
+    def _all_dead(self) -> bool:
         nt = self.model.params.n_thrusters
-        dead = not np.any(self._lo_u[:nt]) and not np.any(self._hi_u[:nt])
-        return self.settings.spin_weight if dead else 0.0
+        return not np.any(self._lo_u[:nt]) and not np.any(self._hi_u[:nt])
 
     def parameters(self, h0: np.ndarray, current: np.ndarray | None = None) -> np.ndarray:
         """The compiled problem's parameter vector for a solve from h0 in `current` [m/s, world]."""
         s = self.settings
-        return np.concatenate([h0, water(current), [s.hull_clearance, s.clearance_weight, self.spin_weight()],
-                               self.weights])
+        weights = [s.hull_clearance, s.clearance_weight, self.spin_weight(), self.strut_weight()]
+        return np.concatenate([h0, water(current), weights, self.weights])
 
     def away_thrust(self, h: np.ndarray) -> float:
         """The largest force [N] the thrusters, within their bounds (0 for known-failed ones), can
