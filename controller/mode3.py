@@ -119,6 +119,14 @@ def friction_rows(model: UVMSModel, Rw: np.ndarray, hm: ca.SX, F: ca.SX, s: Mode
     return F[1:] + s.friction * F[0] * v_t / ca.sqrt(ca.dot(v_t, v_t) + s.friction_smoothing**2)
 
 
+def strut_arm(model: UVMSModel, h: ca.SX, plane: Plane) -> ca.SX:
+    """(tip - hull's centre of mass) x the plane's normal [m, world]: its norm is the distance from the
+    hull's centre of mass to the contact normal's line through the tip, the arm by which the wall's
+    push turns the hull."""
+    com = h[:3] + model.attitude(h) @ ca.DM(model.params.hull.com)
+    return ca.cross(model.ee_pose(h)[0] - com, ca.DM(plane.normal))
+
+
 def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi: ca.SX, s: ModeIIISettings,
                clearance: ca.SX | float | None = None, weight: ca.SX | float | None = None,
                spin: ca.SX | float | None = None, strut: ca.SX | float = 0.0) -> ca.SX:
@@ -132,8 +140,7 @@ def stage_cost(model: UVMSModel, plane: Plane, h1: ca.SX, u: ca.SX, F: ca.SX, wi
     d0_dot = model.closing_speeds(h1, ca.DM(plane.normal), plane.offset)[0]
     d0 = model.distances(h1, ca.DM(plane.normal), plane.offset)[0]
     rates = h1[model.n_speeds + 3 :]  # hull angular and joint rates
-    arm = ca.cross(model.ee_pose(h1)[0] - h1[:3] - model.attitude(h1) @ ca.DM(model.params.hull.com),
-                   ca.DM(plane.normal))
+    arm = strut_arm(model, h1, plane)
     return (
         wi * smooth_relu(-d0_dot, s.approach_smoothing)
         + weight * smooth_relu(clearance - d0, s.clearance_smoothing)

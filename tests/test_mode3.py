@@ -255,3 +255,30 @@ def test_regular_angles_solve_a_hull_pitched_89_deg_in_the_worlds_terms(params, 
     plane = scene.planes[contact]
     assert max(abs(float(tip_gap(model, x, plane))) for x in sol.h[1:]) <= 1e-5
     assert min(float(np.min(np.asarray(ocp._clearance(x)))) for x in sol.h[1:]) >= ocp.settings.distance_margin - 1e-5
+
+
+def test_strut_weight_shortens_the_moment_arm_it_prices(params, scene) -> None:
+    """The recorded thrusters-dead Mode III problem above (every thruster dead, the hull pitched
+    88.9 deg): with `strut_weight` = 1 m^-2 the plan's squared moment arms (controller.mode3.strut_arm,
+    checked against MuJoCo in tests/test_model_vs_mujoco.py) summed over its nodes are smaller than
+    without the term, and the plan stays usable with the tip on the wall (1e-5 m). Oracle: the same
+    problem solved with the weight 0, from the same start."""
+    import casadi as ca
+
+    from controller.mode3 import strut_arm
+
+    d = np.load(Path(__file__).parent / "data" / "thrusters_dead_mode3_pitched.npz")
+    model = UVMSModel(params, scene.water)
+    contact = int(d["contact"])
+    plane = scene.planes[contact]
+    h = ca.SX.sym("h", params.n_states)
+    arm2 = ca.Function("arm2", [h], [ca.sumsqr(strut_arm(model, h, plane))])
+    total = {}
+    for weight in (0.0, 1.0):
+        ocp = ModeIIIOCP(model, scene.planes, contact, ModeIIISettings(strut_weight=weight))
+        ocp.limit_inputs(d["lo"], d["hi"])
+        sol = ocp.solve(d["h0"], d["guess"], d["current"], (d["lam_g"], d["lam_x"]))
+        assert sol.status.usable
+        assert max(abs(float(tip_gap(model, x, plane))) for x in sol.h[1:]) <= 1e-5
+        total[weight] = sum(float(arm2(x)) for x in sol.h[1:])
+    assert total[1.0] < total[0.0]
