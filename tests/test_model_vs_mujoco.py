@@ -93,6 +93,14 @@ def test_joint_damping_matches_the_plants_gearbox_friction(scene, params) -> Non
     assert undamped.joints > 1.0
 
 
+def _random_state(params, rng: np.random.Generator) -> np.ndarray:
+    """A state at rest: position ~ N(0, 1) m, Euler angles ~ U(-1, 1) rad, joints home +- 0.5 rad."""
+    h, n = np.zeros(params.n_states), params.n_joints
+    h[:3], h[3:6] = rng.normal(size=3), rng.uniform(-1, 1, 3)
+    h[6:6 + n] = params.arm.home + rng.uniform(-0.5, 0.5, n)
+    return h
+
+
 def test_contact_wrench_maps_like_mj_applyFT(params, scene) -> None:
     """A wrench F^w in a random obstacle frame R_w at the end-effector (paper eq. F_contact):
     the model's generalized force equals MuJoCo's mj_applyFT of the world wrench at the EE site
@@ -101,11 +109,9 @@ def test_contact_wrench_maps_like_mj_applyFT(params, scene) -> None:
     model = UVMSModel(params, scene.water)
     plant = Plant(params, scene.with_planes(()), PlantSettings(build=RIGID_PLANT))
     m, d = plant.model, plant.data
-    n, rng = params.n_joints, np.random.default_rng(4)
+    rng = np.random.default_rng(4)
     for _ in range(20):
-        h = np.zeros(params.n_states)
-        h[:3], h[3:6] = rng.normal(size=3), rng.uniform(-1, 1, 3)
-        h[6:6 + n] = params.arm.home + rng.uniform(-0.5, 0.5, n)
+        h = _random_state(params, rng)
         plant.set_state(h)
         Rw = Rotation.random(random_state=rng).as_matrix()
         Fw = rng.normal(0, 10, 6)
@@ -134,11 +140,9 @@ def test_strut_arm_is_the_moment_arm_mujoco_measures(params, scene) -> None:
     wall = scene.planes[0]
     h_sym = ca.SX.sym("h", params.n_states)
     arm = ca.Function("arm", [h_sym], [strut_arm(model, h_sym, wall)])
-    n, rng = params.n_joints, np.random.default_rng(5)
+    rng = np.random.default_rng(5)
     for _ in range(20):
-        h = np.zeros(params.n_states)
-        h[:3], h[3:6] = rng.normal(size=3), rng.uniform(-1, 1, 3)
-        h[6:6 + n] = params.arm.home + rng.uniform(-0.5, 0.5, n)
+        h = _random_state(params, rng)
         plant.set_state(h)
         r = d.site_xpos[m.site(EE_SITE).id] - d.xipos[m.body(HULL).id]
         expected = np.linalg.norm(r - np.dot(r, wall.normal) * np.asarray(wall.normal))
