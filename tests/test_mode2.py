@@ -172,3 +172,62 @@ def test_warm_start_from_the_shifted_plan_reaches_the_cold_solve(params, scene) 
     np.testing.assert_allclose(warm.u, cold.u, atol=1e-3)
     assert warm.dt == pytest.approx(cold.dt, abs=1e-6)
     assert warm.iterations < cold.iterations
+
+
+def _second_problem(params, scene) -> tuple:
+    """The converged plan of the thrusters-dead case above, its first input applied to the model
+    (fine RK4, 100 substeps), and the next Mode II problem: (model, h1, guess, current, bounds)."""
+    from controller.rollouts import simulate
+
+    model = UVMSModel(params, scene.water)
+    current = np.array([0.15, 0.0, 0.0])
+    h0, _ = initial_state(params, wall_approach(0.35, 0.2))
+    ocp = ModeIIOCP(model, scene.planes, 0, ModeIISettings(max_iter=1000))
+    lo, hi = params.input_bounds()
+    lo[:8] = hi[:8] = 0.0
+    ocp.limit_inputs(lo, hi)
+    first = ocp.solve(h0, ocp.deploy_guess(h0, 20, current), current)
+    h1 = model.held_steps(h0, first.u[0], first.dt, 100, vc=current)
+    N = min(len(first.u) - 1, next_horizon(len(first.u), first.dt, ocp.settings.dt_nominal))
+    us, dt = shifted_guess(first, N)
+    return model, h1, (simulate(model, h1, us, dt, current=current), us, dt), current, (lo, hi)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("elastic", [None, 1e3])
+def test_sqp_converges_to_ipopts_plan(params, scene, elastic: float | None) -> None:
+    """Mode II on the SQP (controller.sqp: J_II's terminal cost and the tip-on-the-wall row on x_N,
+    dt_0 free, hard or elastic rows) against IPOPT (exact Hessian, interior point) on the second
+    problem of the thrusters-dead approach. Both converge (IPOPT tol 1e-6; the SQP's steps below
+    1e-6, violation below 1e-8) to the same plan: inputs within 1e-4 N or N m and dt within 1e-6 s
+    (measured 3e-6 and 1e-8: IPOPT ends 1e-8 s past dt's bound, its bound relaxation). The
+    elastic slacks price violations at 1e3 a metre, above every multiplier here, so the exact
+    penalty gives the hard problem's solution."""
+    from controller.sqp import Solver, SQPSettings
+
+    model, h1, guess, current, (lo, hi) = _second_problem(params, scene)
+    ipopt = ModeIIOCP(model, scene.planes, 0, ModeIISettings(max_iter=1000))
+    sqp = ModeIIOCP(model, scene.planes, 0, ModeIISettings(solver=Solver.SQP, sqp=SQPSettings(
+        max_iter=100, line_search=True, elastic=elastic, step_tol=1e-6, violation_tol=1e-8)))
+    for ocp in (ipopt, sqp):
+        ocp.limit_inputs(lo, hi)
+    ref, sol = ipopt.solve(h1, guess, current), sqp.solve(h1, guess, current)
+    assert ref.status is SolverStatus.SUCCESS and sol.status is SolverStatus.SUCCESS
+    np.testing.assert_allclose(sol.u, ref.u, atol=1e-4)
+    assert sol.dt == pytest.approx(ref.dt, abs=1e-6)
+
+
+@pytest.mark.slow
+def test_sqp_past_its_deadline_returns_its_start(params, scene) -> None:
+    """A deadline already past: the SQP does no iteration and returns the guess itself, unusable
+    (the guess leaves the tip off the wall), so the controller falls back (controller.switching)."""
+    import time
+
+    from controller.sqp import Solver
+
+    model, h1, guess, current, (lo, hi) = _second_problem(params, scene)
+    ocp = ModeIIOCP(model, scene.planes, 0, ModeIISettings(solver=Solver.SQP))
+    ocp.limit_inputs(lo, hi)
+    sol = ocp.solve(h1, guess, current, deadline=time.perf_counter())
+    assert sol.iterations == 0 and not sol.status.usable
+    np.testing.assert_array_equal(sol.u, guess[1])
