@@ -19,13 +19,14 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from enum import Enum
 
 import casadi as ca
 import numpy as np
 
 from controller.iterate_stop import IterateStop
 from controller.model import WATER, UVMSModel, water
-from controller.sqp import Solver, SQPSettings, StageSQP
+from controller.sqp import SQPSettings, StageSQP
 from controller.stage_nlp import StageProblem, build_solver
 from controller.transcription import SolverStatus, clearances, ipopt_status, midpoint_residual
 from uvms.scene import Plane
@@ -36,6 +37,17 @@ PITCH = 4  # the pitch angle's index in the state h = (x, y, z, roll, pitch, yaw
 def _default_state_weights(n_joints: int) -> tuple[float, ...]:
     """Position 10, attitude 5 (roll, pitch) and 5 (yaw), joints 1; velocities 1, joint rates 0.1."""
     return (10.0,) * 3 + (5.0,) * 3 + (1.0,) * n_joints + (1.0,) * 6 + (0.1,) * n_joints
+
+
+class Solver(Enum):
+    """How Mode I's NLP is solved. SQP (default): Gauss-Newton SQP with HPIPM's structure-exploiting
+    QP on the compiled stage blocks (controller.sqp); by default one iteration per control period,
+    the real-time iteration (its budget: `sqp.max_iter`). IPOPT: interior point to convergence,
+    exact Hessian, the same compiled blocks (or one SX NLP with compiled=False); the feasibility
+    certificate's minimum-violation problem always uses it."""
+
+    IPOPT = "ipopt"
+    SQP = "sqp"
 
 
 @dataclass(frozen=True)

@@ -22,11 +22,6 @@ contact every body the contact plane's clearances cover (the hull, every link bu
 far off the plane, so the arm meets the wall end-on like a strut. Evidence: docs/decisions.md,
 '0.05 s intervals, meeting the wall end-on'.
 
-Solvers (`solver`): IPOPT to convergence (by default), or the SQP of controller.sqp on the same
-compiled stage blocks, with J_II's terminal cost convexified in its QP and a merit line search:
-iterations bounded by `sqp.max_iter` and by the caller's deadline, its last iterate usable when its
-QP succeeded (REAL_TIME: the caller checks the re-simulated plan, controller.switching).
-
 Algorithm 1's variable horizon: on entry N_p = ceil(t_c / dt_nom), t_c the time to contact of a
 braking-and-deploying rollout (the paper's nominal N_p, with dt >= dt_min, forbids contact sooner
 than N_p dt_min). Each N_p is a different NLP, built on first use and cached; the stage functions
@@ -48,7 +43,6 @@ from controller import impact
 from controller.codegen import NumpyCall
 from controller.model import WATER, UVMSModel, water
 from controller.rollouts import BrakingPolicy, JointHold, ReachPosture
-from controller.sqp import Solver, SQPSettings, StageSQP
 from controller.stage_nlp import StageProblem, build_solver, stage_functions
 from controller.transcription import (
     SolverStatus,
@@ -87,11 +81,7 @@ class ModeIISettings:
     max_iter: int = 100  # IPOPT
     tol: float = 1e-6
     ipopt_options: dict = field(default_factory=dict)
-    warm_start: bool = True  # from the previous solve's multipliers too, with a small initial barrier (IPOPT)
-    solver: Solver = Solver.IPOPT
-    # elastic at 1e3: on 40 recorded problems 1 QP failed (hard rows: 10), 2.2 ms an iteration (1e4: 6, 2.9 ms)
-    sqp: SQPSettings = field(default_factory=lambda: SQPSettings(max_iter=30, line_search=True, elastic=1e3))
-    sqp_reserve: float = 0.01  # s: a step's time kept after the SQP's deadline for the work after the solve
+    warm_start: bool = True  # from the previous solve's multipliers too, with a small initial barrier
 
 
 @dataclass(frozen=True)
@@ -107,7 +97,6 @@ class ModeIISolution:
     impact_force: float = float("nan")  # N, the planned contact's predicted peak (controller.impact)
     lam_g: np.ndarray | None = None  # constraint multipliers (None: no solve's)
     lam_x: np.ndarray | None = None  # bound multipliers
-    violation: float = float("nan")  # the largest constraint violation at the solution (m, N, N m)
 
 
 class ModeIIOCP:
@@ -153,7 +142,6 @@ class ModeIIOCP:
                             "warm_start_mult_bound_push": 1e-6, "mu_init": 1e-3, "mu_strategy": "monotone",
                             **s.ipopt_options}
         self._solvers: dict[tuple[int, bool], ca.Function] = {}
-        self._sqps: dict[int, StageSQP] = {}
         self._functions = stage_functions(self._problem(1), self._name)
         self._lo_u, self._hi_u = p.input_bounds()
         self._q_lo = np.array([lk.joint_range[0] for lk in p.arm.links])
@@ -184,22 +172,6 @@ class ModeIIOCP:
             self._solvers[N, warm] = build_solver(self._problem(N), self._name,
                                                   self._warm_ipopt if warm else self._ipopt, self._functions)
         return self._solvers[N, warm]
-
-    def sqp(self, N: int) -> StageSQP:
-        """The SQP for horizon N (built on first use from the shared compiled stage functions, about
-        20-50 ms, then cached)."""
-        if N not in self._sqps:
-            self._sqps[N] = StageSQP(self._problem(N), self._name, n_alg=self.nv, settings=self.settings.sqp)
-        return self._sqps[N]
-
-    def prepare(self, N_max: int) -> None:
-        """Build the solvers of every horizon up to N_max now, not at their first use."""
-        for n in range(1, N_max + 1):
-            if self.settings.solver is Solver.SQP:
-                self.sqp(n)
-            else:
-                self.solver(n)
-                self.solver(n, warm=self.settings.warm_start)
 
     def shifted_duals(self, sol: ModeIISolution, N_next: int) -> tuple[np.ndarray, np.ndarray] | None:
         """The multipliers of `sol` for the next horizon, resampled as `shifted_guess` resamples its
@@ -261,16 +233,15 @@ class ModeIIOCP:
         return np.concatenate([*blocks, hs[N], [dt]])
 
     def solve(self, h0: np.ndarray, guess: tuple[np.ndarray, np.ndarray, float],
-              current: np.ndarray | None = None, duals: tuple[np.ndarray, np.ndarray] | None = None,
-              deadline: float | None = None) -> ModeIISolution:
+              current: np.ndarray | None = None, duals: tuple[np.ndarray, np.ndarray] | None = None
+              ) -> ModeIISolution:
         """Solve from h0 with a primal guess (states (N+1, ns), inputs (N, nu), dt); with `duals`
-        (lam_g, lam_x: `shifted_duals`) and `warm_start`, by the warm-started IPOPT. `deadline`
-        (time.perf_counter()) bounds the SQP's iterations; IPOPT ignores it."""
+        (lam_g, lam_x: `shifted_duals`) and `warm_start`, by the warm-started solver."""
         hs, us, dt0 = guess
         N, ns, nu, nv = len(us), self.ns, self.nu, self.nv
         nz = ns + 1 + nu + nv
-        sqp = self.settings.solver is Solver.SQP
-        warm = duals is not None and self.settings.warm_start and not sqp
+        warm = duals is not None and self.settings.warm_start
+        solver = self.solver(N, warm)
         lbw, ubw = np.full(N * nz + ns + 1, -np.inf), np.full(N * nz + ns + 1, np.inf)
         for k in range(N + 1):
             i = k * nz
@@ -290,11 +261,6 @@ class ModeIIOCP:
         w0 = np.clip(self.pack(hs, us, dt0), lbw, ubw)
         P = np.concatenate([h0, [dt0], water(current),
                             [min(self.allowed_speed(hs[-1]), 1e3)]])  # (a finite parameter)
-        if sqp:
-            res = self.sqp(N).solve(w0, P, lbw, ubw, lbg[ns:], ubg[ns:], deadline=deadline)
-            return self._solution(res.w, res.status, res.solve_time, res.iterations, res.cost, None, None,
-                                  res.violation)
-        solver = self.solver(N, warm)
         args = {"x0": w0, "p": P, "lbx": lbw, "ubx": ubw, "lbg": lbg, "ubg": ubg}
         if warm:
             args.update(lam_g0=duals[0], lam_x0=duals[1])
@@ -302,22 +268,13 @@ class ModeIIOCP:
         r = solver(**args)
         elapsed = time.perf_counter() - t0
         st = solver.stats()
-        inf_pr = st.get("iterations", {}).get("inf_pr", [np.nan])
-        return self._solution(np.asarray(r["x"]).ravel(), ipopt_status(st), elapsed, int(st["iter_count"]),
-                              float(r["f"]), np.asarray(r["lam_g"]).ravel(), np.asarray(r["lam_x"]).ravel(),
-                              float(inf_pr[-1]) if inf_pr else np.nan)
-
-    def _solution(self, w: np.ndarray, status: SolverStatus, elapsed: float, iterations: int, cost: float,
-                  lam_g: np.ndarray | None, lam_x: np.ndarray | None, violation: float) -> ModeIISolution:
-        ns, nu = self.ns, self.nu
-        nz = ns + 1 + nu + self.nv
-        N = (len(w) - ns - 1) // nz
+        w = np.asarray(r["x"]).ravel()
         h_plan = np.array([w[k * nz:k * nz + ns] for k in range(N + 1)])
-        return ModeIISolution(status=status, h=h_plan, u=np.array([w[k * nz + ns + 1:k * nz + ns + 1 + nu]
-                                                                   for k in range(N)]),
-                              dt=float(w[ns]), solve_time=elapsed, iterations=iterations, cost=cost, w=w,
-                              impact_force=self.impact_force(h_plan[-1]), lam_g=lam_g, lam_x=lam_x,
-                              violation=violation)
+        return ModeIISolution(status=ipopt_status(st), h=h_plan,
+                              u=np.array([w[k * nz + ns + 1:k * nz + ns + 1 + nu] for k in range(N)]),
+                              dt=float(w[ns]), solve_time=elapsed, iterations=int(st["iter_count"]),
+                              cost=float(r["f"]), w=w, impact_force=self.impact_force(h_plan[-1]),
+                              lam_g=np.asarray(r["lam_g"]).ravel(), lam_x=np.asarray(r["lam_x"]).ravel())
 
     def allowed_speed(self, h: np.ndarray) -> float:
         """The tip's approach speed [m/s] at which it meets the contact plane, in h's posture, with a peak

@@ -23,9 +23,7 @@ by tens of newtons after 16 iterations, cut ones reach a re-simulated feasible p
 `stop` test, given the iterate after each iteration, ends the solve as STOPPED.
 
 Converged (SUCCESS): the step's largest entry below `step_tol` and the constraint violation below
-`violation_tol`. A solve given a `deadline` starts no iteration that its longest one so far (or,
-before its first, the previous solve's) would end after it, and ends as at `max_iter`; it may do none.
-At `max_iter` the iterate is FEASIBLE when its
+`violation_tol`. At `max_iter` the iterate is FEASIBLE when its
 violation is below FEASIBLE_VIOLATION, else REAL_TIME when `real_time` is set (with max_iter = 1 the
 real-time iteration of Diehl, Bock and Schloeder 2005: one QP per control period, converging over
 the periods), else MAX_ITER. A failed QP is FAILED; the caller falls back (controller.switching).
@@ -44,16 +42,6 @@ import numpy as np
 from controller.codegen import NumpyCall
 from controller.stage_nlp import StageProblem, stage_functions
 from controller.transcription import FEASIBLE_VIOLATION, SolverStatus
-
-
-class Solver(Enum):
-    """How an NLP is solved. SQP: Gauss-Newton SQP with HPIPM's structure-exploiting QP on the
-    compiled stage blocks (StageSQP), a bounded number of iterations (Mode I's default: the
-    real-time iteration). IPOPT: interior point to convergence, exact Hessian, the same compiled
-    blocks; the feasibility certificate's minimum-violation problem always uses it."""
-
-    IPOPT = "ipopt"
-    SQP = "sqp"
 
 
 class QPMode(Enum):
@@ -79,13 +67,8 @@ class SQPSettings:
     qp_tol: float = 1e-6  # HPIPM's tolerances (ROBUST at 1e-8 and SPEED_ABS at 1e-9 stall at the iteration cap)
     qp_mu0: float | None = 0.1  # HPIPM's initial barrier parameter (None: the mode's own; ROBUST's is 100)
     line_search: bool = False  # Armijo backtracking on the L1 merit function (False: full steps)
-    # Elastic mode (Nocedal and Wright 18.3's S l1 QP): each stage's QP gets one slack >= 0 that relaxes its
-    # path rows' lower bounds and its terminal rows (after stage N-1's), at this price per unit (the cost's
-    # units per m, N...), so that every QP is feasible; None: hard rows (an infeasible QP fails the solve)
-    elastic: float | None = None
 
 
-ELASTIC_CURVATURE = 1e-6  # the elastic slack's Hessian entry (keeps HPIPM's Riccati factorization definite)
 ARMIJO = 1e-4  # the merit's sufficient decrease, as a fraction of its directional derivative
 SHORTEST = 1 / 64  # the shortest step fraction tried; taken when no longer one decreases the merit
 
@@ -120,66 +103,49 @@ def _block_sparsity(shape: tuple[int, int], blocks: list[tuple[int, int, int, in
 
 
 class StageSQP:
-    """SQP on `problem` (no stage parameters). The last n_alg entries of each stage's v are
-    algebraic; the first nx + n_alg constraint rows are the dynamics (= 0). The stage cost must be a
-    separable quadratic in the states and controls (its Hessian diagonal, without entries on the
-    algebraic variables; evaluated once, at the first solve). A terminal cost may be any smooth
-    function of x_N: its Hessian, evaluated at every iteration, enters the QP with its negative
-    eigenvalues raised to zero (a convex model of it); terminal constraints are the QP's rows at
-    stage N. The entries of x_0 past problem.nf are free within their bounds."""
+    """SQP on `problem` (no terminal functions; x_0 fully fixed to p[:nx]). The last n_alg entries
+    of each stage's v are algebraic; the first nx + n_alg constraint rows are the dynamics (= 0).
+    The cost must be a separable quadratic in the states and controls (its Hessian diagonal, without
+    entries on the algebraic variables; evaluated once, at the first solve)."""
 
     def __init__(self, problem: StageProblem, name: str, n_alg: int, settings: SQPSettings = SQPSettings()):
         pr = problem
-        if pr.np_stage:
-            raise ValueError(f"StageSQP: {pr.np_stage} stage parameters; allowed: none")
+        if pr.n_terminal or pr.terminal_cost is not None or pr.nf != pr.nx or pr.np_stage:
+            raise ValueError("StageSQP: terminal functions, partly fixed x_0 and stage parameters are not supported")
         self.pr, self.settings, self.n_alg = pr, settings, n_alg
         N, nx, nv = pr.horizon, pr.nx, pr.nv
         self.nu = nv - n_alg  # the QP's controls per stage
         self.nd = nx + n_alg  # dynamics rows
         self.ng = pr.nc - self.nd  # path constraints per stage
         self.ns = 2 * nx + nv
-        self.nt = nt = pr.n_terminal
         fn = stage_functions(pr, name)
-        S, P, XN, LT = ca.MX.sym("S", self.ns, N), ca.MX.sym("P", pr.np), ca.MX.sym("xN", nx), ca.MX.sym("lam_t", nt)
+        S, P = ca.MX.sym("S", self.ns, N), ca.MX.sym("P", pr.np)
         PN = ca.repmat(P, 1, N)
         c, J = fn[f"{name}_jac"].map(N)(S, PN)
         _, grad = fn[f"{name}_grad"].map(N)(S, PN)
-        tc, tJ = fn[f"{name}_tjac"](XN, P)
-        tf, tgrad = fn[f"{name}_tgrad"](XN, P)
-        tH = fn[f"{name}_thess"](XN, P, 1.0, LT)
-        self._lin = NumpyCall(ca.Function("linearization", [S, P, XN, LT], [ca.densify(o) for o in (
-            c, J, grad, tc, tJ, tgrad, tH)]))
-        self._val = NumpyCall(ca.Function("values", [S, P, XN], [
-            ca.densify(fn[f"{name}_g"].map(N)(S, PN)), ca.sum2(pr.cost.map(N)(S, PN)) + tf,
-            ca.densify(fn[f"{name}_tg"](XN, P))]))
+        self._lin = NumpyCall(ca.Function("linearization", [S, P], [ca.densify(c), ca.densify(J), ca.densify(grad)]))
+        self._val = NumpyCall(ca.Function("values", [S, P], [ca.densify(fn[f"{name}_g"].map(N)(S, PN)),
+                                                            ca.sum2(pr.cost.map(N)(S, PN))]))
         hess = fn[f"{name}_hess"].map(N)(S, PN, 1.0, ca.DM.zeros(pr.nc, N))
         self._cost_hessian = NumpyCall(ca.Function("cost_hessian", [S, P], [ca.densify(hess)]))
-
         self._h: np.ndarray | None = None  # the cost Hessian's diagonal per stage (N, ns)
         nz = nx + nv
         self._stage_idx = (np.arange(N)[:, None] * nz + np.arange(self.ns)).ravel()  # s_k = w[k nz:k nz + ns]
         self._dep = np.r_[nz:nz + nx, nx + self.nu:nz]  # the eliminated (x_k+1, z_k) in s, in T's row order
-        nxu = nx + self.nu
-        e = 1 if settings.elastic is not None else 0  # the elastic slack: one more QP control per stage
-        nxq = nxu + e  # a stage's QP variables (dx_k, du_k, slack_k)
-        nr = nt * (1 + e)  # terminal rows (two sides each when elastic)
-        nq, na, ng = (N + 1) * nx + N * (self.nu + e), N * (nx + self.ng) + nr, self.ng
-        self._col = [k * nxq for k in range(N + 1)]  # where dx_k starts in the QP's variables
-        self._slack = np.array([self._col[k] + nxu for k in range(N)]) if e else np.zeros(0, int)
-        a_blocks, a_diag, h_blocks, h_diag = [], [], [], []
+        nq, nxu = (N + 1) * nx + N * self.nu, nx + self.nu
+        na = N * (nx + self.ng)
+        self._col = [k * nxu for k in range(N + 1)]  # where dx_k starts in the QP's variables
+        a_blocks, a_diag, h_blocks = [], [], []
         for k in range(N):
-            r = k * (nx + ng)
-            a_blocks += [(r, self._col[k], nx, nxu), (r + nx, self._col[k], ng, nxu + e)]
+            r = k * (nx + self.ng)
+            a_blocks += [(r, self._col[k], nx, nxu), (r + nx, self._col[k], self.ng, nxu)]
             a_diag.append((r, self._col[k + 1], nx))
             h_blocks.append((self._col[k], self._col[k], nxu, nxu))
-            h_diag += [(self._col[k] + nxu, self._col[k] + nxu, 1)] * e
         h_blocks.append((self._col[N], self._col[N], nx, nx))
-        if nt:  # the terminal rows on x_N = x_N(dx_N-1, du_N-1) through T_N-1, so that the slack reaches them
-            a_blocks.append((N * (nx + ng), self._col[N - 1], nr, nxu + e))
         a_sp, a_idx = _block_sparsity((na, nq), a_blocks, a_diag)
-        h_sp, h_idx = _block_sparsity((nq, nq), h_blocks, h_diag)
+        h_sp, h_idx = _block_sparsity((nq, nq), h_blocks)
         qp = ca.conic(f"{name}_qp", "hpipm", {"a": a_sp, "h": h_sp}, {
-            "N": N, "nx": [nx] * (N + 1), "nu": [self.nu + e] * N + [0], "ng": [ng] * (N - 1) + [ng + nr, 0],
+            "N": N, "nx": [nx] * (N + 1), "nu": [self.nu] * N + [0], "ng": [self.ng] * N + [0],
             "print_problem": False, "print_time": False, "error_on_fail": False,
             "hpipm": {"mode": settings.qp_mode.value, "iter_max": settings.qp_iter_max, **{
                 f"res_{r}_max": settings.qp_tol for r in "gbdm"}} | (
@@ -197,52 +163,33 @@ class StageSQP:
         self._qp = NumpyCall(ca.Function(f"{name}_qp_call", list(args.values()),
                                          [sol["x"], sol["lam_a"], sol["lam_x"]], list(args), ["x", "lam_a", "lam_x"]))
         # where each nonzero of A and H comes from: A's from [T's dynamics blocks (N, nx, nxu), the
-        # path rows' blocks (N, ng, nxu), the terminal rows' (nr, nxu), -1 (the -I blocks and the
-        # slack's upper sides), +1 (the slack's lower sides)], H's from [the stages' blocks (N, nxu,
-        # nxu), the terminal block (nx, nx), the slack's curvature]
-        src_a, src_h = np.full((na, nq), -1), np.zeros((nq, nq), int)
-        n_dyn, n_path, n_term = N * nx * nxu, N * ng * nxu, nr * nxu
-        minus, plus = n_dyn + n_path + n_term, n_dyn + n_path + n_term + 1
+        # path constraints' blocks (N, ng, nxu), -1 (the -I blocks)], H's from the stages' blocks
+        # (N, nxu, nxu) and a zero (the terminal block: the cost has no terminal term)
+        src_a, src_h = np.full((na, nq), -1), np.full((nq, nq), N * nxu * nxu)
+        n_dyn, n_path = N * nx * nxu, N * self.ng * nxu
         for k in range(N):
-            r, col = k * (nx + ng), self._col[k]
+            r, col = k * (nx + self.ng), self._col[k]
             src_a[r:r + nx, col:col + nxu] = k * nx * nxu + np.arange(nx * nxu).reshape(nx, nxu)
-            src_a[r + nx:r + nx + ng, col:col + nxu] = n_dyn + k * ng * nxu + np.arange(ng * nxu).reshape(ng, nxu)
-            src_a[r:r + nx, self._col[k + 1]:self._col[k + 1] + nx][np.diag_indices(nx)] = minus
+            src_a[r + nx:r + nx + self.ng, col:col + nxu] = n_dyn + k * self.ng * nxu + np.arange(
+                self.ng * nxu).reshape(self.ng, nxu)
+            src_a[r:r + nx, self._col[k + 1]:self._col[k + 1] + nx][np.diag_indices(nx)] = n_dyn + n_path
             src_h[col:col + nxu, col:col + nxu] = k * nxu * nxu + np.arange(nxu * nxu).reshape(nxu, nxu)
-            if e:
-                src_a[r + nx:r + nx + ng, col + nxu] = plus
-                src_h[col + nxu, col + nxu] = N * nxu * nxu + nx * nx
-        if nt:
-            r, col = N * (nx + ng), self._col[N - 1]
-            src_a[r:, col:col + nxu] = n_dyn + n_path + np.arange(n_term).reshape(nr, nxu)
-            if e:
-                src_a[r:r + nt, col + nxu], src_a[r + nt:, col + nxu] = plus, minus
-        src_h[self._col[N]:, self._col[N]:] = N * nxu * nxu + np.arange(nx * nx).reshape(nx, nx)
         self._a_src, self._h_src = src_a[a_idx], src_h[h_idx]
-        self._a_vals = np.zeros(n_dyn + n_path + n_term + 2)
-        self._a_vals[minus], self._a_vals[plus] = -1.0, 1.0
-        self._h_vals = np.zeros(N * nxu * nxu + nx * nx + e)
-        if e:
-            self._h_vals[-1] = ELASTIC_CURVATURE
+        self._a_vals = np.zeros(n_dyn + n_path + 1)
+        self._a_vals[-1] = -1.0
+        self._h_vals = np.zeros(N * nxu * nxu + 1)
         nz = nx + nv
         self._keep = np.concatenate([np.r_[k * nz:k * nz + nxu] for k in range(N)] + [np.r_[N * nz:N * nz + nx]])
-        self._nq = nq
-        self._qx = np.concatenate([np.r_[self._col[k]:self._col[k] + nxu] for k in range(N)] + [
-            np.r_[self._col[N]:self._col[N] + nx]])  # where the kept entries of w sit in the QP's variables
-        self._iteration_time = 0.0  # s, the previous solve's longest iteration (a deadline's forecast)
 
     # ------------------------------------------------------------------------------------------
     def _step_length(self, w: np.ndarray, step: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray,
-                     grad: np.ndarray, terminal: tuple[np.ndarray, np.ndarray], lam_a: np.ndarray,
-                     mu: float) -> tuple[float, float]:
+                     grad: np.ndarray, lam_a: np.ndarray, mu: float) -> tuple[float, float]:
         """The fraction of `step` that Armijo backtracking (halving) accepts on the L1 merit
         f + mu |c|_1, and the penalty mu used (never lowered across iterations). grad: the stage
-        costs' gradients (N, ns) at w; terminal: the terminal cost's gradient and the QP's (convex)
-        Hessian of it; lam_a: the QP's row multipliers."""
-        N, nx = self.pr.horizon, self.pr.nx
-        ds, dxN = step[self._stage_idx].reshape(N, self.ns), step[-nx:]
-        slope = float(np.sum(grad * ds)) + float(terminal[0] @ dxN)
-        curvature = float(np.sum(self._h * ds * ds)) + float(dxN @ terminal[1] @ dxN)
+        costs' gradients (N, ns) at w; lam_a: the QP's row multipliers."""
+        N = self.pr.horizon
+        ds = step[self._stage_idx].reshape(N, self.ns)
+        slope, curvature = float(np.sum(grad * ds)), float(np.sum(self._h * ds * ds))
         over, cost = self._violations(w, p, lbg, ubg)
         c1 = float(over.sum())
         mu = max(mu, 1.5 * float(np.abs(lam_a).max(initial=0.0)))
@@ -262,16 +209,14 @@ class StageSQP:
         return w[self._stage_idx]
 
     def _violations(self, w: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> tuple[np.ndarray, float]:
-        """(every constraint's violation >= 0: the stage constraints, the terminal ones, then
-        x_0[:nf] = p[:nf]; cost) at w. lbg, ubg: the stage rows (N nc) then the terminal rows."""
-        nf = self.pr.nf
-        out = self._val(self._stages(w), p, w[-self.pr.nx:])
-        c = np.concatenate([out[0], out[2]])
+        """(every constraint's violation >= 0: the stage constraints, then x_0 = p[:nx]; cost) at w."""
+        out = self._val(self._stages(w), p)
+        c = out[0]
         over = np.maximum(np.maximum(lbg - c, c - ubg), 0.0)
-        return np.concatenate([over, np.abs(w[:nf] - p[:nf])]), float(out[1][0])
+        return np.concatenate([over, np.abs(w[:self.pr.nx] - p[:self.pr.nx])]), float(out[1][0])
 
     def evaluate(self, w: np.ndarray, p: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> tuple[float, float]:
-        """(largest violation of the stage and terminal constraints and of x_0[:nf] = p[:nf], cost) at w."""
+        """(largest violation of the stage constraints and of x_0 = p[:nx], cost) at w."""
         over, cost = self._violations(w, p, lbg, ubg)
         return float(over.max()), cost
 
@@ -295,24 +240,18 @@ class StageSQP:
 
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray, lbg: np.ndarray,
               ubg: np.ndarray, settings: SQPSettings | None = None,
-              stop: Callable[[np.ndarray], bool] | None = None, deadline: float | None = None) -> SQPResult:
+              stop: Callable[[np.ndarray], bool] | None = None) -> SQPResult:
         """From w0 with parameters p; lbw/ubw bound w, lbg/ubg bound the stage constraints (N nc,
-        stage-major; the dynamics rows must be 0) and then the terminal ones. `settings` replaces the iteration settings
+        stage-major; the dynamics rows must be 0). `settings` replaces the iteration settings
         (max_iter, real_time, step_tol, violation_tol, line_search) for this solve; the QP's are
-        fixed at construction. `stop(w)`, after each iteration: True ends the solve (STOPPED).
-        `deadline`: time.perf_counter() by which the solve returns (the module's docstring). The QP's
-        settings (elastic included) are the constructor's."""
+        fixed at construction. `stop(w)`, after each iteration: True ends the solve (STOPPED)."""
         t0 = time.perf_counter()
         pr, s = self.pr, settings or self.settings
         N, nx, nv, nd, ns, ng = pr.horizon, pr.nx, pr.nv, self.nd, self.ns, self.ng
         nz, nxu = nx + nv, nx + self.nu
         w = np.array(w0, float)
-        lo_g = lbg[:N * pr.nc].reshape(N, pr.nc)[:, nd:]
-        hi_g = ubg[:N * pr.nc].reshape(N, pr.nc)[:, nd:]
-        lo_t, hi_t = lbg[N * pr.nc:], ubg[N * pr.nc:]
-        elastic = int(self.settings.elastic is not None)
-        if elastic and np.any(np.isfinite(hi_g)):
-            raise ValueError(f"{self.qp.name()}: elastic SQP with path rows bounded above; allowed: lower bounds only")
+        lo_g = lbg.reshape(N, pr.nc)[:, nd:]
+        hi_g = ubg.reshape(N, pr.nc)[:, nd:]
         if self._h is None:
             Hs = self._cost_hessian(self._stages(w), p)[0].reshape(N, ns, ns)
             h = np.diagonal(Hs, axis1=1, axis2=2).copy()
@@ -322,67 +261,45 @@ class StageSQP:
             self._h = h
         status, qp_iters, iterations, mu = SolverStatus.MAX_ITER, 0, 0, 0.0
         n_dyn = N * nx * nxu
-        forecast, longest = self._iteration_time, 0.0
-        lam_t = np.zeros(self.nt)  # the terminal rows' multipliers (the last QP's): their curvature enters tH
-        for iteration in range(1, s.max_iter + 1):
-            started = time.perf_counter()
-            if deadline is not None and started + max(forecast, longest) > deadline:
-                break
-            iterations = iteration
-            out = self._lin(self._stages(w), p, w[-nx:], lam_t)
+        for iterations in range(1, s.max_iter + 1):  # noqa: B007 (the count is returned)
+            out = self._lin(self._stages(w), p)
             c = out[0].reshape(N, pr.nc)
             J = out[1].reshape(N, ns, pr.nc).transpose(0, 2, 1)  # (N, nc, ns)
             grad = out[2].reshape(N, ns)
-            tc, tJ, tgrad = out[3].ravel(), out[4].reshape(nx, self.nt).T, out[5].ravel()
-            eig, vec = np.linalg.eigh(out[6].reshape(nx, nx))
-            tH = (vec * np.maximum(eig, 0.0)) @ vec.T  # the terminal Lagrangian's Hessian, convexified
             T, Hq, gq, CD, ce = self.eliminate(J, c, grad)
             W, t = T[:, :, :-1], T[:, :, -1]
-            # the QP in HPIPM's layout [dx_0, du_0, (slack_0), ..., dx_N]; the terminal rows on
-            # x_N = x_N-1 + ... through T_N-1: tJ dx_N = tJ (W_N-1 [dx; du] + t_N-1)
+            # the QP in HPIPM's layout [dx_0, du_0, ..., dx_N]
             lba, uba = np.zeros((N, nx + ng)), np.zeros((N, nx + ng))
             lba[:, :nx] = uba[:, :nx] = -T[:, :nx, -1]
             lba[:, nx:], uba[:, nx:] = lo_g - ce, hi_g - ce
-            tA, tb = tJ @ W[-1, :nx], tc + tJ @ t[-1, :nx]
-            self._a_vals[:n_dyn] = W[:, :nx].ravel()
-            self._a_vals[n_dyn:n_dyn + CD.size] = CD.ravel()
-            self._a_vals[n_dyn + CD.size:n_dyn + CD.size + tA.size * (1 + elastic)] = np.tile(tA.ravel(), 1 + elastic)
-            self._h_vals[:Hq.size] = Hq.ravel()
-            self._h_vals[Hq.size:Hq.size + tH.size] = tH.ravel()
-            g = np.zeros(self._nq)
-            g[self._qx] = np.concatenate([gq.ravel(), tgrad])
-            g[self._slack] = self.settings.elastic if elastic else 0.0
-            lbx, ubx = np.zeros(self._nq), np.full(self._nq, np.inf)
-            lbx[self._qx], ubx[self._qx] = (lbw - w)[self._keep], (ubw - w)[self._keep]
-            lbx[:pr.nf] = ubx[:pr.nf] = p[:pr.nf] - w[:pr.nf]
-            inf = np.full(self.nt * elastic, np.inf)
-            x, lam_a, _ = self._qp(self._h_vals[self._h_src], self._a_vals[self._a_src], g,
-                                   np.concatenate([lba.ravel(), lo_t - tb, -inf]),
-                                   np.concatenate([uba.ravel(), inf, hi_t - tb]),
-                                   lbx, ubx)
+            self._a_vals[:n_dyn] = T[:, :nx, :-1].ravel()
+            self._a_vals[n_dyn:-1] = CD.ravel()
+            self._h_vals[:-1] = Hq.ravel()
+            g = np.concatenate([gq.ravel(), np.zeros(nx)])
+            lbx, ubx = (lbw - w)[self._keep], (ubw - w)[self._keep]
+            lbx[:nx] = ubx[:nx] = p[:nx] - w[:nx]
+            x, lam_a, _ = self._qp(self._h_vals[self._h_src], self._a_vals[self._a_src], g, lba.ravel(),
+                                   uba.ravel(), lbx, ubx)
             st = self.qp.stats(1)  # (see __init__)
             qp_iters += int(st.get("iter_count", 0))
             if not st["success"]:
                 status = SolverStatus.FAILED
                 break
-            lam_t = lam_a[N * (nx + ng):N * (nx + ng) + self.nt] + (lam_a[N * (nx + ng) + self.nt:] if elastic else 0.0)
-            d = x[self._qx]
+            d = x.copy()
             step = np.zeros_like(w)
             step[self._keep] = d
             dxu = d[:N * nxu].reshape(N, nxu)
             step[:N * nz].reshape(N, nz)[:, nxu:] = (W[:, nx:] @ dxu[:, :, None])[:, :, 0] + t[:, nx:]
             alpha = 1.0
             if s.line_search:
-                alpha, mu = self._step_length(w, step, p, lbg, ubg, grad, (tgrad, tH), lam_a, mu)
+                alpha, mu = self._step_length(w, step, p, lbg, ubg, grad, lam_a, mu)
             w = w + alpha * step
-            longest = max(longest, time.perf_counter() - started)
             if np.abs(step).max() < s.step_tol:  # (the full step: a short one does not mean converged)
                 status = SolverStatus.SUCCESS
                 break
             if stop is not None and stop(w):
                 status = SolverStatus.STOPPED
                 break
-        self._iteration_time = longest or forecast
         violation, cost = self.evaluate(w, p, lbg, ubg)
         if status is SolverStatus.STOPPED:
             return SQPResult(status, w, iterations, qp_iters, violation, cost, time.perf_counter() - t0)
@@ -390,6 +307,6 @@ class StageSQP:
             status = SolverStatus.MAX_ITER
         if status is SolverStatus.MAX_ITER and violation < FEASIBLE_VIOLATION:
             status = SolverStatus.FEASIBLE
-        elif status is SolverStatus.MAX_ITER and s.real_time and iterations > 0:
+        elif status is SolverStatus.MAX_ITER and s.real_time:
             status = SolverStatus.REAL_TIME
         return SQPResult(status, w, iterations, qp_iters, violation, cost, time.perf_counter() - t0)

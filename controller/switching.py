@@ -151,7 +151,9 @@ class SwitchingNMPC:
         self.set_failed_thrusters(settings.failed_thrusters)
         if settings.switching:
             for plane in range(len(self.planes)):  # no assembly stall at the first switch, nor at a new N_p
-                self.ocp2(plane).prepare(settings.mode2.horizon)
+                for n in range(1, settings.mode2.horizon + 1):
+                    self.ocp2(plane).solver(n)
+                    self.ocp2(plane).solver(n, warm=settings.mode2.warm_start)
                 self.ocp2(plane).prepare_guesses(settings.mode2.horizon)
                 self.ocp3(plane)
         self.mode = Mode.I
@@ -164,8 +166,6 @@ class SwitchingNMPC:
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
         self._deploy: tuple[ModeIIOCP, np.ndarray, tuple] | None = None  # the deadline's deploy rollout this step
-        self._answer_by: float | None = None  # this step's deadline (time.perf_counter()), if any
-        self._iterate: ModeIISolution | None = None  # Mode II's last SQP iterate not applied (the next start)
 
     def _hooked(self, kind: str, ocp: Any) -> Any:
         """The problem with its solve reported to `on_solve` (unchanged without a hook)."""
@@ -247,14 +247,13 @@ class SwitchingNMPC:
         return np.array(hs)
 
     # ------------------------------------------------------------------------------------------
-    def step(self, h: np.ndarray, t: float, ahead: tuple[np.ndarray, float] | None = None,
-             answer_by: float | None = None) -> tuple[np.ndarray, StepInfo]:
+    def step(self, h: np.ndarray, t: float, ahead: tuple[np.ndarray, float] | None = None
+             ) -> tuple[np.ndarray, StepInfo]:
         """The input u (thruster forces N, joint torques N m) to hold for info.dt seconds. `ahead`:
         the state predicted for when the input will act, and that time [s] (`predict`; None: h, t).
         Modes I and II plan from it and the check that the tip reached the plane reads it; Mode III
         and the release check read the measured h (planning from a prediction through the contact
-        lost: experiments/realtime_mode3_ahead). `answer_by` (time.perf_counter()): when the answer
-        is due; Mode II's SQP ends its iterations `mode2.sqp_reserve` before it."""
+        lost: experiments/realtime_mode3_ahead)."""
         h = np.asarray(h, float)
         if h.shape != (self.model.n_states,) or not np.all(np.isfinite(h)):
             raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
@@ -269,7 +268,7 @@ class SwitchingNMPC:
             else:  # Mode II afresh: Algorithm 1's entry
                 self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         t0 = time.perf_counter()
-        self._switch, self._ocp_time, self._deploy, self._answer_by = None, 0.0, None, answer_by
+        self._switch, self._ocp_time, self._deploy = None, 0.0, None
         if self.mode is Mode.I:
             out = self._step_mode1(h_a, t_a)
         elif self.mode is Mode.II:
@@ -400,40 +399,24 @@ class SwitchingNMPC:
         self._reported_mode = Mode.II
         s, ocp, N = self.settings.mode2, self.ocp2(self.contact), self._horizon2
         previous = self._plan if isinstance(self._plan, ModeIISolution) else None
-        start = self._iterate if previous is not None and self._iterate is not None else previous
-        duals, fallback_plan = None, None
-        if start is not None:
-            us, dt = shifted_guess(start, N)
+        duals = None
+        if previous is not None:
+            us, dt = shifted_guess(previous, N)
             guess = (self._resimulate(h, us, dt), us, dt)
-            duals = ocp.shifted_duals(start, N)
-            if start is previous:
-                fallback_plan = guess
+            duals = ocp.shifted_duals(previous, N)
         else:  # the deploy rollout, unless the deadline computed it for this state in this step
             ready = (self._deploy is not None and self._deploy[0] is ocp and self._deploy[1] is h
                      and N == self.settings.mode2.horizon)
-            guess = fallback_plan = self._deploy[2] if ready else ocp.deploy_guess(h, N, self.current)
+            guess = self._deploy[2] if ready else ocp.deploy_guess(h, N, self.current)
             N = len(guess[1])
-        deadline = None if self._answer_by is None else self._answer_by - s.sqp_reserve
-        sol = ocp.solve(h, guess, self.current, duals, deadline)
+        sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
         iters = sol.iterations
-        if fallback_plan is None:  # the previous plan, shifted
-            us, dt = shifted_guess(previous, N)
-            fallback_plan = (self._resimulate(h, us, dt), us, dt)
-        hp = self._resimulate(h, sol.u, sol.dt) if sol.status.usable else None
-        self._iterate = None
-        if hp is not None and sol.status is SolverStatus.REAL_TIME:
-            # an unconverged SQP iterate: applied unless its plan comes closer to the planes than the fallback's
-            # does (and touches one); kept either way as the next step's start, so iterations accumulate
-            def closest(hs: np.ndarray) -> float:
-                return min(ocp.protected_clearance(x) for x in hs[1:])
-            if closest(hp) < min(0.0, closest(fallback_plan[0])):
-                hp, self._iterate = None, sol
-        if hp is not None:
-            u, dt, fallback, up = sol.u[0], sol.dt, Fallback.NONE, sol.u
+        if sol.status.usable:
+            u, dt, fallback, hp, up = sol.u[0], sol.dt, Fallback.NONE, self._resimulate(h, sol.u, sol.dt), sol.u
             self._plan = sol
         else:
-            hp, up, dt = fallback_plan
+            hp, up, dt = guess
             u, fallback = up[0], Fallback.SHIFTED_PLAN if previous is not None else Fallback.GUESS
             self._plan = ModeIISolution(sol.status, hp, up, dt, sol.solve_time, iters, np.nan, sol.w)
         # Algorithm 1
@@ -541,8 +524,6 @@ class SwitchingController:
             water(np.zeros(3), task.trim - task.params.weight_in_water(water_of.density, water_of.gravity))
 
     def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, StepInfo]:
-        """The answer, due L after the call (SwitchingNMPC.step's answer_by) when planning for a latency L."""
-        answer_by = time.perf_counter() + self.latency if self.latency > 0.0 else None
         if self.nmpc is None or self._task is None:
             raise ValueError("step before reset; allowed: reset(task) first")
         failed = self._task.failed_thrusters(t)
@@ -559,9 +540,9 @@ class SwitchingController:
         self.nmpc.current = known
         if self._started and self.latency > 0.0:  # the first step's input acts at once
             ahead = self.nmpc.predict(h, self.nmpc.last_u, self.latency), t + self.latency
-            u, info = self.nmpc.step(h, t, ahead, answer_by)
+            u, info = self.nmpc.step(h, t, ahead)
         else:
-            u, info = self.nmpc.step(h, t, answer_by=answer_by)
+            u, info = self.nmpc.step(h, t)
         self._started = True
         self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
         return u, replace(info, water=known.copy())

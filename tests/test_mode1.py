@@ -172,7 +172,7 @@ def test_sqp_eliminates_the_implicit_dynamics_exactly(params, scene) -> None:
     N, nx, ns, nd, nxu = pr.horizon, pr.nx, sqp.ns, sqp.nd, pr.nx + sqp.nu
     p = np.concatenate([h, ref, water()])
     stages = sqp._stages(sol.w)
-    c, J, grad = (o.copy() for o in sqp._lin(stages, p, sol.w[-nx:])[:3])
+    c, J, grad = (o.copy() for o in sqp._lin(stages, p))
     c, J, grad = c.reshape(N, pr.nc), J.reshape(N, ns, pr.nc).transpose(0, 2, 1), grad.reshape(N, ns)
     H = sqp._cost_hessian(stages, p)[0].reshape(N, ns, ns)
     T, Hq, gq, CD, ce = sqp.eliminate(J, c, grad)
