@@ -117,13 +117,13 @@ def test_spin_term_stops_the_hull_with_less_turn(contact_case, params, scene) ->
     live.limit_inputs(lo, hi)
     assert live.spin_weight() == 0.0
     lo[:8] = hi[:8] = 0.0
-    ocp = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings(strut_weight=0.0))
+    with_spin = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings(strut_weight=0.0))
     spinning = ModeIIIOCP(model, scene.planes, 0, ModeIIISettings(spin_weight=0.0, strut_weight=0.0))
-    for o in (ocp, spinning):
+    for o in (with_spin, spinning):
         o.limit_inputs(lo, hi)
     wall, nv = scene.planes[0], model.n_speeds
     peak, excursion, moment = [], [], []
-    for o in (ocp, spinning):
+    for o in (with_spin, spinning):
         sol = o.solve(h, o.contact_guess(h, np.zeros((o.settings.horizon, model.n_inputs)), None))
         assert sol.status is SolverStatus.SUCCESS
         assert float(np.asarray(model.closing_speeds(sol.h[-1], wall.normal, wall.offset)).ravel()[0]) > 0.0
