@@ -76,6 +76,9 @@ class ModeIISettings:
     impact_weight: float = 100.0  # s/m, J_II's exact penalty on the tip's approach speed beyond that peak's
     impact_smoothing: float = 0.01  # m/s, that penalty's relu
     terminal_margin: float | None = 0.04  # m, other bodies off the contact plane at contact (None: as above)
+    # m: a clearance row already below its bound at h0 is held at its h0 clearance less this instead
+    # (None: every row at its bound, so a state inside the margin makes every plan infeasible)
+    hold_violated: float | None = None
     deploy_stiffness: float = 10.0  # N m/rad, the initial guess's arm PD
     deploy_damping: float = 1.5  # N m s/rad
     max_iter: int = 100  # IPOPT
@@ -253,11 +256,17 @@ class ModeIIOCP:
                 lbw[i + ns + 1:i + ns + 1 + nu], ubw[i + ns + 1:i + ns + 1 + nu] = self._lo_u, self._hi_u
         nc = ns + nv + 1 + self.n_clear
         lbg, ubg = np.zeros(ns + N * nc + 1), np.zeros(ns + N * nc + 1)
+        s = self.settings
+        lb = np.full(self.n_clear, s.distance_margin)
+        lb_terminal = lb.copy()
+        if s.terminal_margin is not None:  # the last node: every protected body off the contact plane
+            lb_terminal[self._contact_rows] = s.terminal_margin
+        if s.hold_violated is not None:  # no closer than at h0 (less the allowance)
+            c0 = np.asarray(self._clearance(h0)).ravel() - s.hold_violated
+            lb, lb_terminal = np.minimum(lb, c0), np.minimum(lb_terminal, c0)
         for k in range(N):
             i = ns + k * nc + ns + nv + 1
-            lbg[i:i + self.n_clear], ubg[i:i + self.n_clear] = self.settings.distance_margin, np.inf
-        if self.settings.terminal_margin is not None:  # the last node: every protected body off the contact plane
-            lbg[i + self._contact_rows] = self.settings.terminal_margin
+            lbg[i:i + self.n_clear], ubg[i:i + self.n_clear] = lb_terminal if k == N - 1 else lb, np.inf
         w0 = np.clip(self.pack(hs, us, dt0), lbw, ubw)
         P = np.concatenate([h0, [dt0], water(current),
                             [min(self.allowed_speed(hs[-1]), 1e3)]])  # (a finite parameter)
