@@ -12,7 +12,7 @@ import pytest
 
 from controller.mode1 import SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
-from controller.model import UVMSModel
+from controller.model import ModelOptions, UVMSModel
 from controller.transcription import clearances, tip_gap
 from validation.closed_loop import initial_state
 from validation.scenarios import wall_approach
@@ -172,3 +172,45 @@ def test_warm_start_from_the_shifted_plan_reaches_the_cold_solve(params, scene) 
     np.testing.assert_allclose(warm.u, cold.u, atol=1e-3)
     assert warm.dt == pytest.approx(cold.dt, abs=1e-6)
     assert warm.iterations < cold.iterations
+
+
+@pytest.mark.slow
+def test_hold_violated_plans_from_inside_the_margin(params, scene) -> None:
+    """A Mode II problem a strict 50 ms run posed (wall-oblique, development seed 1: horizontal
+    thrusters dead, 0.25 m/s current, N = 2 intervals of 0.05-0.1 s; tests/data/
+    wall_oblique_mode2_inside.npz) with the hull's superellipsoid 4.1 cm into the contact plane.
+    With every row at its 5 mm margin IPOPT runs to its cap (the first node cannot be 4.6 cm
+    further off). With `hold_violated = 0` it plans (SUCCESS): every row at every node at least
+    min(margin, its clearance at h0), the hull's within 1e-6 m, and the tip on the wall at the end.
+    Oracle: the model's RK4 at 100 substeps per interval under the plan's inputs keeps the hull
+    within 0.5 mm of its starting clearance at every substep and ends it within 1 mm of the plan's
+    last node (measured 0.08 and 0.2 mm: the hull moves slowly, the midpoint rule's error is the
+    arm's)."""
+    model = UVMSModel(params, scene.water, ModelOptions(joint_damping=True))
+    rec = np.load(Path(__file__).parent / "data" / "wall_oblique_mode2_inside.npz")
+    h0, current = rec["h"], rec["current"]
+    guess = (rec["guess_h"], rec["guess_u"], float(rec["guess_dt"]))
+    strict = ModeIISettings(dt_bounds=(0.05, 0.1))  # the intervals a 50 ms latency stretches them to
+
+    def plan(settings: ModeIISettings) -> ModeIISolution:
+        ocp = ModeIIOCP(model, scene.planes, 0, settings)
+        ocp.limit_inputs(rec["lo"], rec["hi"])
+        return ocp.solve(h0, guess, current)
+
+    def rows(h: np.ndarray) -> np.ndarray:
+        return np.asarray(clearances(model, h, scene.planes, 0)).ravel()
+
+    c0 = rows(h0)
+    assert c0[0] < -0.04 and np.all(c0[1:] > strict.distance_margin)  # the hull, alone inside
+    assert plan(strict).status is SolverStatus.MAX_ITER
+    sol = plan(replace(strict, hold_violated=0.0))
+    assert sol.status is SolverStatus.SUCCESS
+    assert all(np.all(rows(h) > np.minimum(strict.distance_margin, c0) - 1e-6) for h in sol.h[1:])
+    assert abs(float(tip_gap(model, sol.h[-1], scene.planes[0]))) < 1e-6
+    h, hull = h0.copy(), []
+    for u in sol.u:
+        for _ in range(100):
+            h = model.step(h, u, sol.dt / 100, vc=current)
+            hull.append(rows(h)[0])
+    assert min(hull) > c0[0] - 5e-4
+    assert abs(hull[-1] - rows(sol.h[-1])[0]) < 1e-3
