@@ -91,9 +91,6 @@ class SwitchingSettings:
     # joint_damping; the paper's model has none): strict 50 ms 109/144 vs 82/144, hull contacts 18
     # vs 39 (experiments/model_joint_damping)
     model_joint_damping: bool = True
-    # Mode II's last step (N_p = 1) also solves Mode III's entry from the state predicted for Mode III's
-    # first step, whose solve then starts from that plan and its multipliers (not Algorithm 2's guess, cold)
-    prepare_mode3: bool = False
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""
@@ -169,7 +166,6 @@ class SwitchingNMPC:
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
         self._deploy: tuple[ModeIIOCP, np.ndarray, tuple] | None = None  # the deadline's deploy rollout this step
-        self._entry3: ModeIIISolution | None = None  # Mode III's entry plan, prepared by Mode II's last step
 
     def _hooked(self, kind: str, ocp: Any) -> Any:
         """The problem with its solve reported to `on_solve` (unchanged without a hook)."""
@@ -273,15 +269,12 @@ class SwitchingNMPC:
                 self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         t0 = time.perf_counter()
         self._switch, self._ocp_time, self._deploy = None, 0.0, None
-        entry3, self._entry3 = self._entry3, None
         if self.mode is Mode.I:
             out = self._step_mode1(h_a, t_a)
         elif self.mode is Mode.II:
             out = self._step_mode2(h_a)
         else:
-            out = self._step_mode3(h, entry3)
-        if self.settings.prepare_mode3 and self.mode is Mode.III and self._reported_mode is Mode.II:
-            self._entry3 = self._prepare_mode3(h_a, out.u, out.dt - (t_a - t))
+            out = self._step_mode3(h)
         self.last_u = np.clip(out.u, self.lo, self.hi)
         info = StepInfo(t=t, mode=self._reported_mode, status=out.status, fallback=out.fallback,
                         solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=out.iterations,
@@ -434,17 +427,7 @@ class SwitchingNMPC:
         return _ModeStep(u, sol.status, fallback, iters, dt, N, hp, up, certificate=cert,
                          impact_force=ocp.impact_force(hp[-1]))
 
-    def _prepare_mode3(self, h: np.ndarray, u: np.ndarray, seconds: float) -> ModeIIISolution | None:
-        """With `prepare_mode3`: Mode III's entry plan (Algorithm 2's guess, cold) from the state
-        `seconds` after h with u held, when Mode III's first step will measure it; None if unusable."""
-        h3 = self.predict(h, u, seconds)
-        ocp = self.ocp3(self.contact)
-        held = np.repeat(np.clip(u, self.lo, self.hi)[None], ocp.settings.horizon, 0)
-        sol = ocp.solve(h3, ocp.contact_guess(h3, held, None, self.current), self.current)
-        return sol if sol.status.usable else None
-
-    def _step_mode3(self, h: np.ndarray, entry: ModeIIISolution | None = None) -> _ModeStep:
-        """Mode III's step; `entry`: its first solve's start (`_prepare_mode3`), else Algorithm 2's."""
+    def _step_mode3(self, h: np.ndarray) -> _ModeStep:
         self._reported_mode = Mode.III
         ocp = self.ocp3(self.contact)
         s = ocp.settings
@@ -454,8 +437,6 @@ class SwitchingNMPC:
             Fs = np.vstack([previous.force[1:], previous.force[-1:]])
             guess = ocp.pack(np.vstack([h, self._recomputed[2:], self._recomputed[-1:]]), us, Fs)
             duals = ocp.shifted_duals(previous)
-        elif entry is not None:  # the plan prepared for this state, from the one measured now
-            guess, duals = ocp.pack(np.vstack([h, entry.h[1:]]), entry.u, entry.force), (entry.lam_g, entry.lam_x)
         else:  # Algorithm 2
             guess = ocp.contact_guess(h, np.repeat(self.last_u[None], s.horizon, 0), None, self.current)
             duals = None
