@@ -1,8 +1,8 @@
 """Offline: Mode II with and without `hold_violated = 0` on the problems strict closed loops posed.
 
 Record first (`python bench/mode2_solvers.py --record 4 --latency 0.05:strict`, out/, not committed),
-then `python probe.py` writes probe.md: per arm and horizon class, usable plans, IPOPT's iterations and
-solve times (median / p95), and how many usable plans came within 40 ms.
+then `python probe.py` writes probe.md and its manifest: per arm and horizon class, usable plans,
+IPOPT's iterations and solve times (median / p95), and how many usable plans came within 40 ms.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ sys.path.insert(0, str(ROOT))
 from controller.mode2 import ModeIIOCP  # noqa: E402
 from controller.model import UVMSModel  # noqa: E402
 from uvms import load_params, load_scene  # noqa: E402
+from validation import manifest  # noqa: E402
 
 ARMS = {"default": {}, "hold_violated = 0": {"hold_violated": 0.0}}
 
@@ -54,4 +55,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with manifest.recorded(Path(__file__).parent / "probe.manifest.json", {"arms": ARMS}):
+        main()
