@@ -297,6 +297,34 @@ def test_verdict_ranks_hull_then_links_then_a_tip_over_its_force_limit() -> None
     assert judge(0.1, 50.0, 0.5, limit + 1.0, limit)[0] is Outcome.HULL_CONTACT
 
 
+def test_verdict_names_the_plane_the_hull_touched() -> None:
+    """A hull 30 % heavier than its parameters (mass*1.3: about 38 N heavy in water), level and at
+    rest with its lowest point 5 cm above the seafloor and 0.6 m off the wall, no input, in
+    thrusters-dead's current (0.25 m/s onto the wall): MuJoCo sinks it onto the seafloor within 1 s.
+    The tally must name the seafloor alone, as MuJoCo's own distances say: the hull's smallest
+    distance below zero to the seafloor and above 0.3 m to the wall (it drifts less than 0.3 m in
+    that time)."""
+    from validation.observers import ContactTally
+    from validation.setup import build_plant, initial_state
+
+    sc = get("thrusters-dead")
+    params, scene, plant, _ = build_plant(sc, "mass*1.3", 0)
+    h0, _ = initial_state(params, sc)
+    floor = next(p for p in scene.planes if p.name == "seafloor")
+    h0[2] = -floor.offset + params.hull.size[2] / 2 + 0.05
+    plant.reset(h0)
+    tally, u = ContactTally(plant), np.zeros(params.n_inputs)
+    for k in range(10):
+        tally.observe(0.1 * k, plant.step(u, 0.1), None, u)
+    c = tally.totals()
+    hull = plant.geom_names.index("hull_geom")
+    planes = [p.name for p in plant.scene.planes]
+    assert c.min_distance[hull, planes.index("seafloor")] < 0.0 < 0.3 < c.min_distance[hull, planes.index("wall")]
+    assert c.hull_planes == ("seafloor",)
+    outcome, reason = judge(c.hull_impulse, c.hull_peak, c.link_impulse, c.tip_peak, hull_planes=c.hull_planes)
+    assert outcome is Outcome.HULL_CONTACT and reason.startswith("the hull touched the seafloor with")
+
+
 @pytest.mark.slow
 def test_mode1_only_crashes_in_wall_headon(tmp_path) -> None:
     """The baseline of the same case (Mode I alone, no switching) cannot stop in time: within 1.2 s

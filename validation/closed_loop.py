@@ -68,12 +68,14 @@ class Outcome(Enum):
 
 
 def judge(hull_impulse: float, hull_peak: float, link_impulse: float, tip_peak: float,
-          tip_limit: float = np.inf) -> tuple[Outcome, str]:
+          tip_limit: float = np.inf, hull_planes: tuple[str, ...] = ()) -> tuple[Outcome, str]:
     """Verdict and reason from the summed contact-impulse magnitudes [N s] of the hull and of the arm
-    links other than the tip, the peak normal forces [N] of the hull and of the tip, and the force the
-    tip may take [N] (worst first: hull, other links, tip overload)."""
+    links other than the tip, the peak normal forces [N] of the hull and of the tip, the force the
+    tip may take [N] (worst first: hull, other links, tip overload) and the planes the hull touched."""
     if hull_impulse > 0.0:
-        return Outcome.HULL_CONTACT, f"the hull touched with {hull_impulse:.3f} N s of impulse, peak {hull_peak:.0f} N"
+        where = f" the {' and the '.join(hull_planes)}" if hull_planes else ""
+        return Outcome.HULL_CONTACT, (f"the hull touched{where} with {hull_impulse:.3f} N s of impulse, "
+                                      f"peak {hull_peak:.0f} N")
     if link_impulse > 0.0:
         return Outcome.ARM_CONTACT, f"an arm link other than the end-effector touched with {link_impulse:.3f} N s"
     if tip_peak > tip_limit:
@@ -352,7 +354,8 @@ def _summarize(sc: Scenario, resolved: presets.Resolved, mismatch: str, seed: in
     c = tally.totals()
     wall = main_plane(scene.planes)
     hull_geoms = [i for i, g in enumerate(plant.geom_names) if g.startswith(HULL)]
-    outcome, reason = judge(c.hull_impulse, c.hull_peak, c.link_impulse, c.tip_peak, params.arm.tip_force_limit)
+    outcome, reason = judge(c.hull_impulse, c.hull_peak, c.link_impulse, c.tip_peak, params.arm.tip_force_limit,
+                            c.hull_planes)
     overruns = sum(s.overrun for s in steps)
     return Summary(
         scenario={"name": sc.name, **sc.to_data()}, controller=resolved.name,

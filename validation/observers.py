@@ -37,6 +37,7 @@ class ContactTotals:
     link_impulse: float  # arm links other than the end-effector tip
     tip_peak: float
     min_distance: np.ndarray  # (n_geoms, n_planes) m, smallest signed distance seen
+    hull_planes: tuple[str, ...] = ()  # the planes the hull touched, in the order of their first touch
 
 
 class ContactTally:
@@ -45,6 +46,7 @@ class ContactTally:
     def __init__(self, plant: Plant):
         self.hull_impulse = self.hull_peak = self.link_impulse = self.tip_peak = 0.0
         self.min_distance = np.full((len(plant.geom_names), len(plant.scene.planes)), np.inf)
+        self.hull_planes: dict[str, None] = {}
 
     def observe(self, t: float, report: PlantReport, info: StepInfo, u: np.ndarray) -> None:
         self.min_distance = np.minimum(self.min_distance, report.distances)
@@ -52,6 +54,7 @@ class ContactTally:
             if c.body == HULL:
                 self.hull_impulse += float(np.linalg.norm(c.impulse))
                 self.hull_peak = max(self.hull_peak, c.peak_normal_force)
+                self.hull_planes.setdefault(c.plane)
             elif c.geom == TIP_GEOM:
                 self.tip_peak = max(self.tip_peak, c.peak_normal_force)
             else:
@@ -59,7 +62,7 @@ class ContactTally:
 
     def totals(self) -> ContactTotals:
         return ContactTotals(self.hull_impulse, self.hull_peak, self.link_impulse, self.tip_peak,
-                             self.min_distance.copy())
+                             self.min_distance.copy(), tuple(self.hull_planes))
 
     def close(self) -> None:
         """Nothing to release."""
