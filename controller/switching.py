@@ -53,7 +53,6 @@ class SwitchReason(Enum):
     F_EMPTY = "F empty: a positive minimum violation"
     SOLVER_FAILURE = "F taken as empty: IPOPT failed on the minimum-violation problem"
     DEPLOY_DEADLINE = "deploy deadline: waiting would leave Mode II no time to put the tip on the wall"
-    RETARGET = "retarget: another plane's deploy deadline while in Mode III; Mode II onto that plane"
 
 
 class Fallback(Enum):
@@ -79,9 +78,6 @@ class SwitchingSettings:
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
     release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
-    # s, or None (off): in Mode III, the deploy deadline with this lead asked of every other plane; when
-    # it fires, Mode II onto that plane (a heavy hull sinking onto the seafloor while the tip holds the wall)
-    retarget: float | None = None
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     observe_current: bool = True  # add controller.estimator's estimate of the unknown current and hull weight
@@ -266,12 +262,6 @@ class SwitchingNMPC:
         distances, closing = self._geometry(h)
         if self.mode is Mode.III and self._reported_mode is Mode.III and self._may_release(h, closing):
             self.mode, self._plan = Mode.I, None
-        retarget = None
-        if self.mode is Mode.III and self._reported_mode is Mode.III and self.settings.retarget is not None:
-            retarget = self._threatened_plane(h)
-            if retarget is not None:
-                self.contact, self.mode, self._plan = retarget, Mode.II, None
-                self._horizon2 = self.settings.mode2.horizon
         if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h_a):
             if closing[self.contact, 0] > self.settings.separation_speed:  # no contact needed: the certificate decides
                 self.mode, self._plan = Mode.I, None
@@ -279,8 +269,6 @@ class SwitchingNMPC:
                 self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         t0 = time.perf_counter()
         self._switch, self._ocp_time, self._deploy = None, 0.0, None
-        if retarget is not None:
-            self._switch = SwitchReason.RETARGET
         if self.mode is Mode.I:
             out = self._step_mode1(h_a, t_a)
         elif self.mode is Mode.II:
@@ -378,25 +366,6 @@ class SwitchingNMPC:
         hs, _ = self.feasibility.braking_rollout(h, self.current)
         protected = self.ocp2(self.contact).protected_clearance
         return min(protected(x) for x in hs[1:]) >= self.feasibility.settings.distance_margin
-
-    def _threatened_plane(self, h: np.ndarray) -> int | None:
-        """With `retarget`, in Mode III: the first plane other than the contact plane whose deploy
-        deadline (`_deadline`'s rule with the lead `retarget`, on the braking rollout from h, which does
-        not know the contact: its clearance to the other planes is the evidence) fires now; else None."""
-        s, margin = self.settings.mode1, self.feasibility.settings.distance_margin
-        hs, _ = self.feasibility.braking_rollout(h, self.current)
-        for j in range(len(self.planes)):
-            if j == self.contact:
-                continue
-            pl = self.planes[j]  # the bodies that Mode II onto plane j keeps off it (all but the last link)
-            close = [float(np.min(np.asarray(self.model.distances(x, pl.normal, pl.offset)).ravel()[:-1])) < margin
-                     for x in hs[1:]]
-            if not any(close):
-                continue
-            _, us, dt = self.ocp2(j).deploy_guess(h, self.settings.mode2.horizon, self.current)
-            if s.dt * (1 + close.index(True)) <= len(us) * dt + s.dt + self.settings.retarget:
-                return j
-        return None
 
     def _short_of_contact(self, h: np.ndarray) -> bool:
         """With `contact_tolerance`: whether the tip is further than that from the contact plane
