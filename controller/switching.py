@@ -34,6 +34,7 @@ from controller.feasibility import Certificate, CertificateSettings, Feasibility
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
+from controller.mode3_entry import EntryHelper, EntryRequest
 from controller.model import ModelOptions, UVMSModel, water
 from controller.protocol import StepInfo, Task
 from controller.rollouts import BrakingPolicy, JointHold, simulate
@@ -91,6 +92,10 @@ class SwitchingSettings:
     # joint_damping; the paper's model has none): strict 50 ms 109/144 vs 82/144, hull contacts 18
     # vs 39 (experiments/model_joint_damping)
     model_joint_damping: bool = True
+    # under a declared latency, a helper process solves Mode III's entry from each Mode II plan's last
+    # node while Mode II runs, and Mode III's first solve starts from its newest answer
+    # (controller.mode3_entry; not Algorithm 2's guess, cold)
+    mode3_entry_helper: bool = False
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""
@@ -166,6 +171,18 @@ class SwitchingNMPC:
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
         self._deploy: tuple[ModeIIOCP, np.ndarray, tuple] | None = None  # the deadline's deploy rollout this step
+        self._helper: EntryHelper | None = None  # Mode III's entry solved ahead (start_entry_helper)
+
+    def start_entry_helper(self) -> None:
+        """Fork the process that solves Mode III's entry ahead (controller.mode3_entry)."""
+        if self._helper is None:
+            self._helper = EntryHelper(self)
+
+    def close(self) -> None:
+        """Stop the entry helper, if any."""
+        if self._helper is not None:
+            self._helper.close()
+            self._helper = None
 
     def _hooked(self, kind: str, ocp: Any) -> Any:
         """The problem with its solve reported to `on_solve` (unchanged without a hook)."""
@@ -274,7 +291,7 @@ class SwitchingNMPC:
         elif self.mode is Mode.II:
             out = self._step_mode2(h_a)
         else:
-            out = self._step_mode3(h)
+            out = self._step_mode3(h, entry=self._reported_mode is Mode.II)
         self.last_u = np.clip(out.u, self.lo, self.hi)
         info = StepInfo(t=t, mode=self._reported_mode, status=out.status, fallback=out.fallback,
                         solve_time=time.perf_counter() - t0, ocp_time=self._ocp_time, iterations=out.iterations,
@@ -400,6 +417,8 @@ class SwitchingNMPC:
         s, ocp, N = self.settings.mode2, self.ocp2(self.contact), self._horizon2
         previous = self._plan if isinstance(self._plan, ModeIISolution) else None
         duals = None
+        if previous is None and self._helper is not None:
+            self._helper.clear()
         if previous is not None:
             us, dt = shifted_guess(previous, N)
             guess = (self._resimulate(h, us, dt), us, dt)
@@ -419,6 +438,10 @@ class SwitchingNMPC:
             hp, up, dt = guess
             u, fallback = up[0], Fallback.SHIFTED_PLAN if previous is not None else Fallback.GUESS
             self._plan = ModeIISolution(sol.status, hp, up, dt, sol.solve_time, iters, np.nan, sol.w)
+        if self._helper is not None:  # Mode III's entry from the state this plan reaches the plane in
+            self._helper.submit(EntryRequest(self.contact, self.ocp3(self.contact).settings.horizon, hp[-1].copy(),
+                                             np.clip(up[-1], self.lo, self.hi), self.current.copy(),
+                                             self.lo.copy(), self.hi.copy()))
         # Algorithm 1
         if N > 1:
             self._horizon2 = min(N - 1, next_horizon(N, dt, s.dt_nominal))
@@ -427,16 +450,20 @@ class SwitchingNMPC:
         return _ModeStep(u, sol.status, fallback, iters, dt, N, hp, up, certificate=cert,
                          impact_force=ocp.impact_force(hp[-1]))
 
-    def _step_mode3(self, h: np.ndarray) -> _ModeStep:
+    def _step_mode3(self, h: np.ndarray, entry: bool = False) -> _ModeStep:
+        """Mode III's step; `entry`: its first after Mode II (the entry helper's answer, if any, is its start)."""
         self._reported_mode = Mode.III
         ocp = self.ocp3(self.contact)
         s = ocp.settings
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
+        ahead = self._helper.take(self.contact, s.horizon) if entry and self._helper is not None else None
         if previous is not None:  # the Final Algorithm: the plan's recomputed states, shifted, from h
             us = np.vstack([previous.u[1:], previous.u[-1:]])
             Fs = np.vstack([previous.force[1:], previous.force[-1:]])
             guess = ocp.pack(np.vstack([h, self._recomputed[2:], self._recomputed[-1:]]), us, Fs)
             duals = ocp.shifted_duals(previous)
+        elif ahead is not None:  # the entry solved ahead from the predicted contact state, from h measured now
+            guess, duals = ocp.pack(np.vstack([h, ahead.h[1:]]), ahead.u, ahead.force), (ahead.lam_g, ahead.lam_x)
         else:  # Algorithm 2
             guess = ocp.contact_guess(h, np.repeat(self.last_u[None], s.horizon, 0), None, self.current)
             duals = None
@@ -517,7 +544,11 @@ class SwitchingController:
             settings = replace(s, mode2=replace(m2, dt_nominal=max(m2.dt_nominal, self.latency),
                                                 dt_bounds=(m2.dt_bounds[0] * scale, m2.dt_bounds[1] * scale)))
         self._started = False
+        if self.nmpc is not None:
+            self.nmpc.close()
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
+        if self.settings.mode3_entry_helper and self.latency > 0.0:
+            self.nmpc.start_entry_helper()
         self.observer = CurrentObserver(model, self.settings.observer) if self.settings.observe_current else None
         water_of = task.scene.water
         self._trim = None if not self.settings.trim_in_contact or task.trim is None else \

@@ -1,0 +1,55 @@
+"""Mode III's entry solved ahead in a forked helper process (controller.mode3_entry)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from controller.mode3_entry import EntryRequest
+from controller.model import UVMSModel, water
+from controller.switching import Mode, SwitchingNMPC
+from validation.closed_loop import initial_state
+from validation.scenarios import wall_approach
+
+WAIT = 120.0  # s: how long the test waits for the helper's answer before calling it lost (not a timing check)
+
+
+def test_the_helpers_entry_is_the_solve_in_this_process_and_starts_mode_three_at_it(params, scene) -> None:
+    """Every thruster dead, the hull 0.15 m from the wall closing at 0.2 m/s, the tip put on the wall
+    by Wall_InvKin. Oracle 1: the same Mode III problem solved in this process from Algorithm 2's
+    guess; the forked helper's answer must be that plan to 1e-9 (same code, same data: only the
+    transport differs). Oracle 2: Mode III's first step from that answer, at the state it was solved
+    for, must return the helper's plan again, to 1e-3 of its largest input (IPOPT's warm start stops at
+    its acceptable level, constraints 1e-5), in fewer iterations than the cold solve took."""
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, wall_approach(0.15, 0.2))
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    ctl = SwitchingNMPC(model, scene.planes, ref)
+    ctl.set_failed_thrusters(tuple(range(params.n_thrusters)))
+    on = h.copy()
+    on[6:6 + params.n_joints] = ctl.ocp3(wall).onto_plane(h)
+    ocp, current = ctl.ocp3(wall), water(np.zeros(3))
+    request = EntryRequest(wall, ocp.settings.horizon, on, np.zeros(params.n_inputs), current, ctl.lo, ctl.hi)
+    ctl.start_entry_helper()
+    try:
+        ctl._helper.submit(request)
+        answer, t0 = None, time.monotonic()
+        while answer is None and time.monotonic() - t0 < WAIT:
+            time.sleep(0.02)
+            answer = ctl._helper.take(wall, ocp.settings.horizon)
+        assert answer is not None, "the helper never answered"
+        held = np.zeros((ocp.settings.horizon, params.n_inputs))
+        here = ocp.solve(on, ocp.contact_guess(on, held, None, current), current)
+        assert here.status.usable
+        np.testing.assert_allclose(answer.w, here.w, rtol=0.0, atol=1e-9)
+
+        ctl._helper._answer = (request, answer)
+        ctl.mode, ctl._reported_mode, ctl.contact, ctl.current = Mode.III, Mode.II, wall, current
+        _, info = ctl.step(on, 0.0)
+        assert info.mode is Mode.III and info.status.usable
+        scale = float(np.max(np.abs(answer.u)))
+        np.testing.assert_allclose(info.u_pred, answer.u, rtol=0.0, atol=1e-3 * scale)
+        assert info.iterations < here.iterations
+    finally:
+        ctl.close()
