@@ -8,7 +8,9 @@ contact (the plan's last node) with the input it ends with; the helper solves Mo
 there from Algorithm 2's guess, as Mode III's first step would, and sends the plan back. Nothing
 waits: `submit` sends only when the helper is idle (else it keeps the newest request for later),
 `take` returns the newest answer that has arrived, for Mode III's first solve to start from (its
-states after the first node, inputs, forces and multipliers).
+states after the first node, inputs, forces and multipliers). An answer outlives the Mode II
+episode that asked for it: Mode II often starts afresh a step or two before the hand-over, sooner
+than a solve comes back.
 
 Not deterministic (which request each answer answers depends on how long the solves take), so
 the switching controller starts it only under a declared latency, where the loop's timing already
@@ -115,11 +117,6 @@ class EntryHelper:
         if answer is None or (answer[0].plane, answer[0].horizon) != (plane, horizon):
             return None
         return answer[1]
-
-    def clear(self) -> None:
-        """Forget the answer and any waiting request (a new Mode II episode)."""
-        self._collect()
-        self._answer = self._pending = None
 
     def close(self) -> None:
         self._finalizer()

@@ -417,8 +417,6 @@ class SwitchingNMPC:
         s, ocp, N = self.settings.mode2, self.ocp2(self.contact), self._horizon2
         previous = self._plan if isinstance(self._plan, ModeIISolution) else None
         duals = None
-        if previous is None and self._helper is not None:
-            self._helper.clear()
         if previous is not None:
             us, dt = shifted_guess(previous, N)
             guess = (self._resimulate(h, us, dt), us, dt)
