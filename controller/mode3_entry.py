@@ -19,6 +19,7 @@ decides what is late. A helper that dies or raises only stops answering.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import weakref
 from dataclasses import dataclass
@@ -66,10 +67,8 @@ def _serve(nmpc: Any, conn: Connection) -> None:
 
 
 def _stop(process: mp.process.BaseProcess, conn: Connection) -> None:
-    try:
+    with contextlib.suppress(OSError, ValueError):  # the helper already gone
         conn.send(None)
-    except (OSError, ValueError):
-        pass
     process.join(timeout=0.2)
     if process.is_alive():
         process.kill()
