@@ -4,8 +4,8 @@ Mode III is the slowest mode (bench/results/nmpc_modes.md): about 30 interior-po
 about 4 ms each. This benchmark replays the Mode III problems that MuJoCo closed loops actually
 posed, so that a change of solver or options is measured offline, side by side, on the same set.
 
-  python bench/mode3_solvers.py --record 2   # the problems of `--controller` (a preset; default: switching)
-                                             # on wall-headon, wall-oblique and arm-deployed, seeds 0-1 (1 min)
+  python bench/mode3_solvers.py --record 2   # only record the problems of `--controller` (a preset; default:
+                                             # switching) on wall-headon, wall-oblique and arm-deployed, seeds 0-1 (1 min)
   python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 15 min)
   python bench/mode3_solvers.py --record 2 --families thrusters-dead
   python bench/mode3_solvers.py --options default,converged --name mode3_solvers_thrusters_dead
@@ -94,7 +94,7 @@ def record_problems(scenario, seed: int, preset: str) -> list[dict]:
         calls.append({"h0": np.array(h0), "guess": np.array(guess), "current": np.zeros(3) if current is None
                       else np.array(current), "lam_g": None if duals is None else np.array(duals[0]),
                       "lam_x": None if duals is None else np.array(duals[1]), "lo": e.ocp._lo_u.copy(),
-                      "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact,
+                      "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact, "horizon": e.ocp.settings.horizon,
                       "model_options": json.dumps(asdict(e.ocp.model.options))})
 
     run(scenario, seed=seed, controller=SwitchingController(presets.resolve(preset).settings, recording))
@@ -122,8 +122,9 @@ def load_problems() -> tuple[dict[str, np.ndarray], np.ndarray, UVMSModel, Scene
         raise SystemExit(f"{PROBLEMS} is missing; allowed: run `python bench/mode3_solvers.py --record 2` first")
     data = dict(np.load(PROBLEMS))
     scene = load_scene()
-    if "model_options" not in data or len(set(data["model_options"])) != 1:
-        raise SystemExit(f"{PROBLEMS} does not hold one controller model's options; allowed: record again")
+    if "model_options" not in data or len(set(data["model_options"])) != 1 or "horizon" not in data:
+        raise SystemExit(f"{PROBLEMS} does not hold one controller model's options and each problem's horizon; "
+                         "allowed: record again")
     options = ModelOptions(**json.loads(str(data["model_options"][0])))
     return data, np.isnan(data["lam_g"][:, 0]), UVMSModel(load_params(), scene.water, options), scene
 
@@ -146,13 +147,13 @@ def evaluate(prefixes: tuple[str, ...] = ("",), stem: str = "mode3_solvers") -> 
     results: dict[str, list[tuple]] = {}
     chosen = {k: v for k, v in OPTIONS.items() if k.startswith(prefixes)}
     for name, opts in tqdm(chosen.items(), desc="option sets", unit="set"):
-        ocps: dict[int, ModeIIIOCP] = {}
+        ocps: dict[tuple[int, int], ModeIIIOCP] = {}
         rows = []
         for i in range(n):
-            contact = int(data["contact"][i])
-            if contact not in ocps:
-                ocps[contact] = ModeIIIOCP(model, scene.planes, contact, ModeIIISettings(ipopt_options=opts))
-            ocp = ocps[contact]
+            key = (int(data["contact"][i]), int(data["horizon"][i]))
+            if key not in ocps:
+                ocps[key] = ModeIIIOCP(model, scene.planes, key[0], ModeIIISettings(horizon=key[1], ipopt_options=opts))
+            ocp = ocps[key]
             ocp.limit_inputs(data["lo"][i], data["hi"][i])
             duals = None if cold[i] else (data["lam_g"][i], data["lam_x"][i])
             sol = ocp.solve(data["h0"][i], data["guess"][i], data["current"][i], duals)
@@ -243,13 +244,13 @@ def breakdown() -> None:
     the rest (IPOPT's iteration with MUMPS, and CasADi's call around the solver), per
     interior-point iteration summed over the problems."""
     data, cold, model, scene = load_problems()
-    ocps: dict[int, ModeIIIOCP] = {}
+    ocps: dict[tuple[int, int], ModeIIIOCP] = {}
     total, iterations, spent = 0.0, 0, dict.fromkeys(CALLBACKS, 0.0)
     for i in tqdm(range(len(cold)), desc="problems", unit="problem"):
-        contact = int(data["contact"][i])
-        if contact not in ocps:
-            ocps[contact] = ModeIIIOCP(model, scene.planes, contact, ModeIIISettings())
-        ocp = ocps[contact]
+        key = (int(data["contact"][i]), int(data["horizon"][i]))
+        if key not in ocps:
+            ocps[key] = ModeIIIOCP(model, scene.planes, key[0], ModeIIISettings(horizon=key[1]))
+        ocp = ocps[key]
         ocp.limit_inputs(data["lo"][i], data["hi"][i])
         duals = None if cold[i] else (data["lam_g"][i], data["lam_x"][i])
         sol = ocp.solve(data["h0"][i], data["guess"][i], data["current"][i], duals)
@@ -296,6 +297,7 @@ def main(argv: list[str] | None = None) -> None:
         if not families or any(f not in SCENARIOS for f in families):
             raise SystemExit(f"--families {a.families!r}; allowed: comma-separated names of {sorted(SCENARIOS)}")
         record(a.record, a.workers, a.controller, families)
+        return
     if a.horizons:
         try:
             values = [int(v) for v in a.horizons.split(",")]
@@ -315,6 +317,8 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
+    if "--record" in sys.argv:
+        sys.exit(main(sys.argv[1:]))
     from validation import manifest
 
     name = "mode3_breakdown" if "--breakdown" in sys.argv else next(
