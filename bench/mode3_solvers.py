@@ -4,8 +4,9 @@ Mode III is the slowest mode (bench/results/nmpc_modes.md): about 30 interior-po
 about 4 ms each. This benchmark replays the Mode III problems that MuJoCo closed loops actually
 posed, so that a change of solver or options is measured offline, side by side, on the same set.
 
-  python bench/mode3_solvers.py --record 2   # only record the problems of `--controller` (a preset; default:
-                                             # switching) on wall-headon, wall-oblique and arm-deployed, seeds 0-1 (1 min)
+  python bench/mode3_solvers.py --record 2   # only record the problems of `--controller` (a preset;
+                                             # default: switching) on wall-headon, wall-oblique and
+                                             # arm-deployed, seeds 0-1 (1 min)
   python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 15 min)
   python bench/mode3_solvers.py --record 2 --families thrusters-dead
   python bench/mode3_solvers.py --options default,converged --name mode3_solvers_thrusters_dead

@@ -152,6 +152,7 @@ class ModeIIOCP:
         self.reach = ReachPosture(model, plane)
         self.deploy = BrakingPolicy(model, JointHold(s.deploy_stiffness, s.deploy_damping))
         self._gap_maps: dict[int, NumpyCall] = {}
+        self._contact_time: tuple[tuple, float | None] | None = None  # time_to_contact's last (arguments, answer)
 
     def protected_clearance(self, h: np.ndarray) -> float:
         """Smallest clearance [m] of what Mode II keeps off the planes (every body and the tip, except
@@ -190,17 +191,30 @@ class ModeIIOCP:
                 np.concatenate([stages_x[idx].ravel(), sol.lam_x[N * nz:]]))
 
     # ------------------------------------------------------------------------------------------
+    def time_to_contact(self, h0: np.ndarray, N_max: int, current: np.ndarray | None = None) -> float | None:
+        """t_c [s]: when the deploy policy (`deploy_guess`), acting every 0.01 s from h0, first puts
+        the tip on the contact plane (to 0.01 s); None if not within N_max intervals of dt_max. The
+        last answer is kept, so that `deploy_guess` on the same arguments does not roll out again."""
+        h0 = np.asarray(h0, float)
+        key = (h0.tobytes(), N_max, None if current is None else np.asarray(current, float).tobytes())
+        if self._contact_time is None or self._contact_time[0] != key:
+            fine = 0.01
+            hs, _ = self.deploy.rollout(h0, self.reach(h0), fine, self._fine_steps(N_max), 1, current,
+                                        every_substep=True)
+            hit = np.flatnonzero(self._gaps(N_max)(hs[1:])[0] <= 0.0)  # column-major (ns, n): the rows of hs
+            self._contact_time = (key, (hit[0] + 1) * fine if hit.size else None)
+        return self._contact_time[1]
+
     def deploy_guess(self, h0: np.ndarray, N_max: int, current: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """The entry guess: brake at full thrust while the arm swings to the posture that reaches
         furthest towards the contact plane (computed torque + PD). The rollout's time to contact
-        t_c sets the horizon as Algorithm 1 does for later steps, N_p = ceil(t_c / dt_nom) (at most
-        N_max; N_max and dt_max if the tip never reaches the plane), and dt = t_c / N_p."""
+        t_c (`time_to_contact`) sets the horizon as Algorithm 1 does for later steps, N_p =
+        ceil(t_c / dt_nom) (at most N_max; N_max and dt_max if the tip never reaches the plane), and
+        dt = t_c / N_p within dt_bounds (so N_p dt exceeds t_c when t_c / N_p < dt_min)."""
         s = self.settings
         posture = self.reach(h0)
         fine, h0 = 0.01, np.asarray(h0, float)
-        hs, _ = self.deploy.rollout(h0, posture, fine, self._fine_steps(N_max), 1, current, every_substep=True)
-        hit = np.flatnonzero(self._gaps(N_max)(hs[1:])[0] <= 0.0)  # column-major (ns, n): the rows of hs
-        t_contact = (hit[0] + 1) * fine if hit.size else None
+        t_contact = self.time_to_contact(h0, N_max, current)
         N = min(N_max, next_horizon(2, t_contact, s.dt_nominal)) if t_contact else N_max
         dt = float(np.clip(t_contact / N if t_contact else s.dt_bounds[1], *s.dt_bounds))
         # The policy is stiff (computed torque + PD): held over a whole interval it goes unstable and

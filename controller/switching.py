@@ -395,7 +395,9 @@ class SwitchingNMPC:
         """With `deploy_deadline`: whether the braking rollout brings something Mode II protects (every
         body but the tip and the last link against the contact plane: ModeIIOCP.protected_clearance)
         within the margin (first node t_hit) no later than one control period plus `deadline_lead`
-        after the time Mode II's deploy rollout needs to put the tip on that plane (t_c): waiting
+        after the time Mode II's deploy rollout needs to put the tip on that plane (t_c, the
+        rollout's own: not the entry guess's N_p dt, which a latency's longer shortest interval
+        rounds up to a whole number of intervals, up to one interval more lead): waiting
         longer would leave Mode II no time, and the lead keeps the stowed arm's base links off the
         wall when the plant drifts closer than the model. The tip and the last link are left out so
         that an arm still on the wall after Mode III does not count. It also applies right after Mode
@@ -407,10 +409,12 @@ class SwitchingNMPC:
         close = [ocp2.protected_clearance(x) < self.feasibility.settings.distance_margin for x in cert.rollout[1:]]
         if not any(close):
             return False
-        guess = ocp2.deploy_guess(h, self.settings.mode2.horizon, self.current)
+        N_max = self.settings.mode2.horizon
+        guess = ocp2.deploy_guess(h, N_max, self.current)
         self._deploy = (ocp2, h, guess)  # Mode II's entry guess if this step switches (_step_mode2)
-        _, us, dt = guess
-        return s.dt * (1 + close.index(True)) <= len(us) * dt + s.dt + self.settings.deadline_lead
+        t_c = ocp2.time_to_contact(h, N_max, self.current)
+        t_deploy = len(guess[1]) * guess[2] if t_c is None else t_c
+        return s.dt * (1 + close.index(True)) <= t_deploy + s.dt + self.settings.deadline_lead
 
     def _step_mode2(self, h: np.ndarray, cert: Certificate | None = None) -> _ModeStep:
         self._reported_mode = Mode.II

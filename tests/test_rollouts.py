@@ -61,8 +61,8 @@ def test_deploy_guess_is_the_policy_stepped_until_the_tip_touches(params, scene)
     """Mode II's deploy guess from a recorded Mode II entry (tests/data/wall_oblique_mode2_entry.npz)
     against its definition stepped in numpy: the deploy policy every 0.01 s until the tip's gap is
     <= 0 (time to contact t_c), N_p = Algorithm 1's horizon for t_c, dt = t_c / N_p, then N_p
-    intervals with the policy every substep. Same t_c, N_p and dt, and states and inputs within 1e-9
-    (the same operations but for the 6x6 solve's rounding)."""
+    intervals with the policy every substep. Same t_c (also `time_to_contact`'s), N_p and dt, and
+    states and inputs within 1e-9 (the same operations but for the 6x6 solve's rounding)."""
     import math
     from pathlib import Path
 
@@ -83,6 +83,7 @@ def test_deploy_guess_is_the_policy_stepped_until_the_tip_touches(params, scene)
             t_c = (i + 1) * 0.01
             break
     assert t_c is not None
+    assert ocp.time_to_contact(h0, s.horizon, current) == pytest.approx(t_c, abs=1e-12)
     N = min(s.horizon, next_horizon(2, t_c, s.dt_nominal))
     assert len(us) == N and dt == pytest.approx(np.clip(t_c / N, *s.dt_bounds), abs=1e-12)
     ref_h, ref_u = reference(model, ocp.deploy, h0, posture, dt, N, math.ceil(dt / 0.01), current, True)

@@ -172,6 +172,57 @@ def test_the_deploy_deadline_skips_a_question_whose_answer_changes_nothing(param
     assert np.array_equal(u_skip, u_asked)
 
 
+def test_the_deploy_deadline_reads_the_deploy_rollouts_own_time_to_contact(params, scene) -> None:
+    """Under a 50 ms latency Mode II's intervals are 0.05-0.1 s long (SwitchingController), so its
+    entry guess's N_p dt rounds the deploy rollout's time to contact up to a whole number of 0.05 s;
+    the deadline compares with the time itself. On wall-headon's approaches (horizontal thrusters
+    dead, 0.25 m/s of current onto the wall; the stowed arm's base 0.10 to 0.25 m off the wall at 0.5
+    to 0.9 m/s), the deadline fires exactly when the rule of its docstring
+    says with t_c the time the deploy policy, stepped in numpy every 0.01 s from the state (the
+    oracle of tests/test_rollouts.py), first puts the tip on the wall, and the rounded time decides
+    differently on at least one of them (so the test tells the two apart)."""
+    from types import SimpleNamespace
+
+    from controller.feasibility import FeasibilityTest
+    from controller.mode2 import ModeIISettings
+    from controller.model import water
+    from controller.transcription import tip_gap
+    from validation.approaches import approach
+
+    model = UVMSModel(params, scene.water)
+    m2 = ModeIISettings(dt_nominal=0.05, dt_bounds=(0.05, 0.1))
+    settings = SwitchingSettings(mode2=m2)
+    test = FeasibilityTest(model, scene.planes)
+    decided, rounded_differs = 0, 0
+    for gap in (0.10, 0.15, 0.20, 0.25):
+        for speed in (0.5, 0.7, 0.9):
+            h, ref = approach(test, gap, 0.0, speed)
+            nmpc = SwitchingNMPC(model, scene.planes, ref, settings)
+            nmpc.set_failed_thrusters((0, 1, 2, 3))
+            nmpc.current = water([0.25, 0.0, 0.0])
+            hs, _ = nmpc.feasibility.braking_rollout(h, nmpc.current)
+            ocp2 = nmpc.ocp2(nmpc._closest_plane(hs))
+            margin = nmpc.feasibility.settings.distance_margin
+            close = [ocp2.protected_clearance(x) < margin for x in hs[1:]]
+            if not any(close):
+                continue
+            cert = SimpleNamespace(rollout=hs, rollout_clearance=-1.0)
+            fired = nmpc._deadline(h, cert)
+            posture, x, t_c = ocp2.reach(h), h, None
+            for i in range(m2.horizon * 10):
+                x = model.step(x, ocp2.deploy(x, posture, nmpc.current), 0.01, vc=nmpc.current)
+                if float(tip_gap(model, x, ocp2.planes[ocp2.contact])) <= 0.0:
+                    t_c = (i + 1) * 0.01
+                    break
+            assert t_c is not None
+            t_hit, period, lead = 0.1 * (1 + close.index(True)), 0.1, settings.deadline_lead
+            assert fired == (t_hit <= t_c + period + lead + 1e-9), (gap, speed, t_c, t_hit)
+            _, us, dt = ocp2.deploy_guess(h, m2.horizon, nmpc.current)
+            rounded_differs += (t_hit <= len(us) * dt + period + lead + 1e-9) != fired
+            decided += 1
+    assert decided >= 10 and rounded_differs >= 1, (decided, rounded_differs)
+
+
 @pytest.mark.slow
 def test_every_solve_is_reported_to_the_hook(params, scene) -> None:
     """`on_solve`: every optimal-control solve of a step is reported once, with its problem and its
