@@ -364,6 +364,17 @@ def test_mismatch_is_parsed_seeded_and_rejected_in_one_line() -> None:
         assert "\n" not in str(err.value)
 
 
+def test_run_takes_a_mismatch_by_name() -> None:
+    """`run(mismatch="default")` draws the plant of the spec DEFAULT itself: the same seeded values,
+    the same closed loop to the bit (oracle: the run given the spec), and the summary records the
+    spec, not the name."""
+    sc = replace(get("wall-headon"), duration=0.3)
+    named, spelled = (run(sc, controller="braking", mismatch=m, seed=3) for m in ("default", DEFAULT))
+    assert named.mismatch == spelled.mismatch and named.mismatch["spec"] == DEFAULT
+    assert named.final_joint_angles == spelled.final_joint_angles
+    assert named.min_hull_distance == spelled.min_hull_distance
+
+
 def test_wide_mismatch_draws_within_its_declared_ranges() -> None:
     """The named "wide" spec: over 200 seeds every draw lies in its declared range (mass 0.8-1.3,
     added mass and drag 0.7-1.3, friction coefficient 0.1-0.8, current -0.2 to 0.2 m/s, trim error

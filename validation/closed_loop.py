@@ -197,7 +197,8 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
         controller: a preset of assets/presets.toml, a `package.module:Class`, or a controller object
             (controller.protocol; its `reset` is called here).
         ctl: dotted overrides of the controller's settings (e.g. {"mode3.horizon": 10}).
-        mismatch: the plant-versus-controller mismatch spec (validation.mismatch; "" for none) ...
+        mismatch: the plant-versus-controller mismatch spec or a name of validation.mismatch.NAMED
+            ("" for none) ...
         seed: ... and the seed of its draw.
         latency: the computation delay (parse_latency; the module's docstring).
         out, video, record, plots: where to write summary.json, an MP4, a Rerun .rrd, the figures.
@@ -211,6 +212,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             raise ValueError("ctl overrides with a controller object; allowed: a preset name with ctl, or an object")
         resolved, ctl_obj = presets.of_object(controller), controller
     spec = parse_latency(latency)
+    mismatch = mismatches.resolve(mismatch)
     make_folders(out, video.parent if video else None, record.parent if record else None, plots)
     params, scene, plant, drawn = build_plant(sc, mismatch, seed)
     task = task_of(sc, params, scene, spec.told)
