@@ -152,7 +152,8 @@ class ModeIIOCP:
         self.reach = ReachPosture(model, plane)
         self.deploy = BrakingPolicy(model, JointHold(s.deploy_stiffness, s.deploy_damping))
         self._gap_maps: dict[int, NumpyCall] = {}
-        self._contact_time: tuple[tuple, float | None] | None = None  # time_to_contact's last (arguments, answer)
+        # _reach_contact's last (arguments, (posture, t_c)): deploy_guess after time_to_contact recomputes neither
+        self._contact_time: tuple[tuple, tuple[np.ndarray, float | None]] | None = None
 
     def protected_clearance(self, h: np.ndarray) -> float:
         """Smallest clearance [m] of what Mode II keeps off the planes (every body and the tip, except
@@ -195,14 +196,18 @@ class ModeIIOCP:
         """t_c [s]: when the deploy policy (`deploy_guess`), acting every 0.01 s from h0, first puts
         the tip on the contact plane (to 0.01 s); None if not within N_max intervals of dt_max. The
         last answer is kept, so that `deploy_guess` on the same arguments does not roll out again."""
+        return self._reach_contact(h0, N_max, current)[1]
+
+    def _reach_contact(self, h0: np.ndarray, N_max: int, current: np.ndarray | None
+                       ) -> tuple[np.ndarray, float | None]:
+        """The deploy policy's posture (ReachPosture: three small IPOPT solves) and `time_to_contact`."""
         h0 = np.asarray(h0, float)
         key = (h0.tobytes(), N_max, None if current is None else np.asarray(current, float).tobytes())
         if self._contact_time is None or self._contact_time[0] != key:
-            fine = 0.01
-            hs, _ = self.deploy.rollout(h0, self.reach(h0), fine, self._fine_steps(N_max), 1, current,
-                                        every_substep=True)
+            fine, posture = 0.01, self.reach(h0)
+            hs, _ = self.deploy.rollout(h0, posture, fine, self._fine_steps(N_max), 1, current, every_substep=True)
             hit = np.flatnonzero(self._gaps(N_max)(hs[1:])[0] <= 0.0)  # column-major (ns, n): the rows of hs
-            self._contact_time = (key, (hit[0] + 1) * fine if hit.size else None)
+            self._contact_time = (key, (posture, (hit[0] + 1) * fine if hit.size else None))
         return self._contact_time[1]
 
     def deploy_guess(self, h0: np.ndarray, N_max: int, current: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
@@ -212,9 +217,8 @@ class ModeIIOCP:
         ceil(t_c / dt_nom) (at most N_max; N_max and dt_max if the tip never reaches the plane), and
         dt = t_c / N_p within dt_bounds (so N_p dt exceeds t_c when t_c / N_p < dt_min)."""
         s = self.settings
-        posture = self.reach(h0)
         fine, h0 = 0.01, np.asarray(h0, float)
-        t_contact = self.time_to_contact(h0, N_max, current)
+        posture, t_contact = self._reach_contact(h0, N_max, current)
         N = min(N_max, next_horizon(2, t_contact, s.dt_nominal)) if t_contact else N_max
         dt = float(np.clip(t_contact / N if t_contact else s.dt_bounds[1], *s.dt_bounds))
         # The policy is stiff (computed torque + PD): held over a whole interval it goes unstable and
