@@ -92,6 +92,7 @@ class StepInfo:
     h_pred: np.ndarray | None = None  # (N+1, ns) predicted states
     u_pred: np.ndarray | None = None  # (N, nu) planned inputs, each for dt: the first is the input returned, the
     # next are what it commits to should its following steps come too late (validation.closed_loop, strict)
+    commit_after: np.ndarray | None = None  # (K, nu) inputs committed past the plan's end, after u_pred's rows
     contact_force: np.ndarray | None = None  # (N, 3) planned contact force, obstacle frame [N]
     contact_plane: int | None = None  # index of the plane the contact is planned on
     distances: np.ndarray | None = None  # (n_planes, n_bodies) m, at the measured state

@@ -79,6 +79,10 @@ class SwitchingSettings:
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
     release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
+    # Mode II's last (N_p = 1) step commits, for a Mode III first step that comes too late (strict real
+    # time), its plan's last thrust with the joints unpowered: the arm coasts into the contact it planned
+    # instead of being driven on into the wall by the swing's torque (StepInfo.commit_after)
+    handover_coast: bool = True
     failed_thrusters: tuple[int, ...] = ()  # thrusters the controller knows to be dead (bounds 0)
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     observe_current: bool = True  # add controller.estimator's estimate of the unknown current and hull weight
@@ -128,6 +132,7 @@ class _ModeStep:
     u_pred: np.ndarray  # (N, nu)
     contact_force: np.ndarray | None = None  # (N, 3) obstacle frame [N] (Mode III)
     certificate: Certificate | None = None
+    commit_after: np.ndarray | None = None  # (K, nu) inputs committed past the plan's end (StepInfo)
     impact_force: float | None = None  # N (Mode II's plan)
 
 
@@ -298,7 +303,7 @@ class SwitchingNMPC:
                         dt=out.dt, horizon=out.horizon, h_pred=out.h_pred, u_pred=out.u_pred,
                         contact_force=out.contact_force, contact_plane=self.contact, distances=distances,
                         closing_speeds=closing, certificate=out.certificate, switch=self._switch,
-                        impact_force=out.impact_force)
+                        impact_force=out.impact_force, commit_after=out.commit_after)
         return self.last_u, info
 
     def _step_mode1(self, h: np.ndarray, t: float) -> _ModeStep:
@@ -445,12 +450,17 @@ class SwitchingNMPC:
                                              np.clip(up[-1], self.lo, self.hi), self.current.copy(),
                                              self.lo.copy(), self.hi.copy()))
         # Algorithm 1
+        coast = None
         if N > 1:
             self._horizon2 = min(N - 1, next_horizon(N, dt, s.dt_nominal))
         else:
             self.mode, self._plan = Mode.III, None
+            if self.settings.handover_coast:
+                coast = np.asarray(up[-1], float).copy()
+                coast[self.model.params.n_thrusters:] = 0.0
+                coast = np.clip(coast, self.lo, self.hi)[None]
         return _ModeStep(u, sol.status, fallback, iters, dt, N, hp, up, certificate=cert,
-                         impact_force=ocp.impact_force(hp[-1]))
+                         impact_force=ocp.impact_force(hp[-1]), commit_after=coast)
 
     def _step_mode3(self, h: np.ndarray, entry: bool = False) -> _ModeStep:
         """Mode III's step; `entry`: its first after Mode II (the entry helper's answer, if any, is its start)."""

@@ -164,8 +164,8 @@ class _Planner:
     bound), its first row as the input, with a 0.1 s period; its step advances the loop's clock by
     0.08 s at the steps in `slow` and by 1 ms otherwise."""
 
-    def __init__(self, clock: list[float], slow: set[int]):
-        self.clock, self.slow, self.k, self.told = clock, slow, 0, []
+    def __init__(self, clock: list[float], slow: set[int], split: bool = False):
+        self.clock, self.slow, self.k, self.told, self.split = clock, slow, 0, [], split
 
     def late(self, u) -> None:
         self.told.append((self.k - 1, np.array(u, float)))
@@ -180,11 +180,14 @@ class _Planner:
         from controller.protocol import StepInfo
         self.clock[0] += 0.08 if self.k in self.slow else 0.001
         plan, self.k = self.plan(self.k), self.k + 1
+        if self.split:  # the last row committed past the plan's end
+            return plan[0], StepInfo(t=t, dt=0.1, mode="plan", u_pred=plan[:2], commit_after=plan[2:])
         return plan[0], StepInfo(t=t, dt=0.1, mode="plan", u_pred=plan)
 
 
+@pytest.mark.parametrize("split", [False, True])
 @pytest.mark.parametrize("strict", [True, False])
-def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, monkeypatch) -> None:
+def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, split, monkeypatch) -> None:
     """latency 0.05 s; steps 2, 3 and 4 take 0.08 s on the loop's clock (a fake one, advanced by the
     controller: the test does not depend on this machine's speed). Strict: each overrun's answer
     is discarded and the plant gets, after the delay, the next row of the last accepted plan (P_1),
@@ -192,7 +195,8 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, monkey
     row applies. Not strict: every answer applies, late or not. The oracle is the plans themselves
     (every input the plant receives is logged, Plant.step); the summary counts the three overruns,
     in the step records and in the mode's timing. The controller is told (`late`) after each
-    discarded answer exactly the input the plant then received in its place, and only then."""
+    discarded answer exactly the input the plant then received in its place, and only then. With
+    `split` each plan's last row comes as StepInfo.commit_after, not in u_pred: the same inputs."""
     import validation.closed_loop as loop
     from uvms_mj.plant import Plant
 
@@ -204,7 +208,7 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, monkey
 
     monkeypatch.setattr(Plant, "step", logged)
     monkeypatch.setattr(loop.time, "perf_counter", lambda: clock[0])
-    ctl = _Planner(clock, slow={2, 3, 4})
+    ctl = _Planner(clock, slow={2, 3, 4}, split=split)
     sc = get("wall-headon").with_overrides({"duration": "0.6", "faults": "none", "current.velocity": "0,0,0"})
     s = run(sc, controller=ctl, mismatch=NONE, latency="0.05:strict" if strict else "0.05")
     P = ctl.plan

@@ -115,6 +115,38 @@ def test_contact_check_holds_mode_three_until_the_tip_is_on_the_plane(params, sc
     assert ctl.step(on, 0.0)[1].mode is Mode.III
 
 
+@pytest.mark.slow
+def test_mode_twos_last_step_commits_its_thrust_with_the_joints_unpowered(params, scene) -> None:
+    """`handover_coast` (the default): Mode II's N_p = 1 step, the tip 3 cm short of the wall and
+    approaching, commits past its plan's end (StepInfo.commit_after: what strict real time applies
+    should Mode III's first step come too late) one row: its plan's last thrust, the joint torques
+    0. Mode II's entry step at N_p > 1 commits nothing past its plan; nor does the N_p = 1 step
+    without the setting."""
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, wall_approach(0.15, 0.2))
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    n, nt, nv = params.n_joints, params.n_thrusters, model.n_speeds
+    settings = SwitchingSettings()
+    q_on = SwitchingNMPC(model, scene.planes, ref, settings).ocp3(wall).onto_plane(h)
+    near = h.copy()
+    near[6:6 + n] = q_on + 0.69 * (h[6:6 + n] - q_on)  # the tip about 3 cm off the wall
+    near[nv + 6:nv + 6 + n] = -0.5 * (h[6:6 + n] - q_on)
+
+    def mode_two_step(x: np.ndarray, horizon: int, coast: bool):
+        ctl = SwitchingNMPC(model, scene.planes, ref, replace(settings, handover_coast=coast))
+        ctl.mode, ctl.contact, ctl._horizon2 = Mode.II, wall, horizon
+        return ctl.step(x, 0.0)[1]
+
+    last = mode_two_step(near, 1, coast=True)
+    assert last.mode is Mode.II and last.horizon == 1
+    assert last.commit_after.shape == (1, model.n_inputs)
+    np.testing.assert_array_equal(last.commit_after[0, :nt], np.clip(last.u_pred[-1], *params.input_bounds())[:nt])
+    np.testing.assert_array_equal(last.commit_after[0, nt:], np.zeros(n))
+    assert mode_two_step(near, 1, coast=False).commit_after is None
+    entry = mode_two_step(h, settings.mode2.horizon, coast=True)
+    assert entry.horizon > 1 and entry.commit_after is None
+
+
 def test_mode_three_plans_over_its_thrust_horizon_only_while_a_thruster_lives(params, scene) -> None:
     """mode3.thrust_horizon=3, the tip put on the wall by Wall_InvKin: with live thrusters Mode III's
     step plans 3 intervals (its plan has 3 inputs and 4 states); once every thruster is known dead

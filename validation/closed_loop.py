@@ -18,9 +18,10 @@ longer than L is an overrun, counted per mode (Summary.solve_time, StepRecord.ov
 Strict real time (":strict" after a number of seconds, `--strict`): an overrun's answer is
 discarded, as if its computation had been cut at L, and the input the controller committed in
 advance is applied instead for one period of its last accepted step: the next input of that step's
-plan (StepInfo.u_pred, whose first row is the input it returned), one further row per consecutive
-overrun, and its last input held once the plan runs out (a controller without a plan: its last
-input). The controller is told through the protocol's optional `late(u)`, with the input applied.
+plan (StepInfo.u_pred, whose first row is the input it returned, then StepInfo.commit_after), one
+further row per consecutive overrun, and its last input held once the plan runs out (a controller
+without a plan: its last input). The controller is told through the protocol's optional
+`late(u)`, with the input applied.
 
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
 tip, and only the tip, touch. A stowed arm that hits the wall before the hull spares the hull but is
@@ -260,7 +261,8 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
                 u, period = committed.take(u_prev)
                 if late is not None:
                     late(u.copy())
-                info = replace(info, dt=period, fallback=LATE, h_pred=None, u_pred=None, contact_force=None)
+                info = replace(info, dt=period, fallback=LATE, h_pred=None, u_pred=None, commit_after=None,
+                               contact_force=None)
             else:
                 committed.accept(info)
             dt = max(ts, round(info.dt / ts) * ts)
@@ -317,8 +319,10 @@ class Committed:
         self.period = 0.0
 
     def accept(self, info: StepInfo) -> None:
-        """A step's answer is applied: its plan's later rows are what it commits to."""
+        """A step's answer is applied: its plan's later rows, then its rows past the plan's end
+        (StepInfo.commit_after), are what it commits to."""
         plan = [] if info.u_pred is None else list(np.asarray(info.u_pred, float)[1:])
+        plan += [] if info.commit_after is None else list(np.asarray(info.commit_after, float))
         self.inputs, self.period = [np.asarray(row, float) for row in plan], float(info.dt)
 
     def take(self, last: np.ndarray) -> tuple[np.ndarray, float]:
