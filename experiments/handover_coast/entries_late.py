@@ -5,7 +5,8 @@ closed loop (the pattern measured on this project's hosts: those steps overrun n
     python entries_late.py OUT.csv FIRST_SEED COUNT [key=value ...]
 
 runs wall-headon, wall-oblique and arm-deployed on seeds FIRST_SEED.. with the switching preset
-and the controller overrides given, two at a time, and writes one row per run."""
+and the controller overrides given, two at a time, and writes one row per run (and the manifest,
+validation.manifest, beside it: OUT.manifest.json)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,9 @@ import csv
 import sys
 import types
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from validation import manifest
 
 FAMILIES = ("wall-headon", "wall-oblique", "arm-deployed")
 FIELDS = ("scenario", "seed", "verdict", "ee_peak_contact_force", "min_hull_distance", "link_contact_impulse", "late")
@@ -53,7 +57,9 @@ def main() -> None:
     out, first, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     ctl = dict(a.split("=", 1) for a in sys.argv[4:])
     jobs = [(f, first + k, ctl) for f in FAMILIES for k in range(count)]
-    with ProcessPoolExecutor(2) as pool:
+    settings = {"families": FAMILIES, "first_seed": first, "seeds": count, "ctl": ctl, "latency": "0.05:strict",
+                "clock": "virtual: each mode-entry step 1 s, every other 1 ms"}
+    with manifest.recorded(Path(out).with_suffix(".manifest.json"), settings), ProcessPoolExecutor(2) as pool:
         rows = list(pool.map(one, jobs))
     with open(out, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=FIELDS, restval="")
