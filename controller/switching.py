@@ -5,9 +5,11 @@ Mode selection (Algorithm 3): Mode I while the feasibility certificate (controll
 finds Mode I's feasible set F non-empty; Mode II once it is empty, or once the deploy deadline
 fires (`deploy_deadline`, not in the paper: waiting longer would leave Mode II no time to put the
 tip on the wall; `_deadline`); Mode III after the Mode II step taken with N_p = 1 (Algorithm 1),
-once the tip is within `contact_tolerance` of the plane (else Mode II afresh); back to Mode I once
-the hull moves away from the contact plane faster than `separation_speed` (the paper: d_0' > 0)
-and maximum braking from there would keep it off (`release_check`, not in the paper: `_may_release`).
+once the tip is within `contact_tolerance` of the plane or, with `contact_reach` under a
+latency, approaches it within the impact bound and gets there by Mode III's first node (else Mode
+II afresh); back to Mode I once the hull moves away from the contact plane faster than
+`separation_speed` (the paper: d_0' > 0) and maximum braking from there would keep it off
+(`release_check`, not in the paper: `_may_release`).
 
 Before each solve the previous plan is shifted by one interval and its states recomputed from the
 measured state by the model's RK4 (the Final Algorithm); Mode III's nodes are put back on the plane
@@ -29,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from controller import impact
 from controller.estimator import CurrentObserver, ObserverSettings
 from controller.feasibility import Certificate, CertificateSettings, FeasibilityTest, Method, Verdict
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
@@ -78,7 +81,8 @@ class SwitchingSettings:
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh (else maximum braking, arm held)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
     release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
-    contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper)
+    contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper) ...
+    contact_reach: bool = True  # ... or, under a latency, approaching it within the impact bound to be that close
     # Mode II's last (N_p = 1) step commits, for a Mode III first step that comes too late (strict real
     # time), its plan's last thrust with the joints unpowered: the arm coasts into the contact it planned
     # instead of being driven on into the wall by the swing's torque (StepInfo.commit_after)
@@ -284,7 +288,7 @@ class SwitchingNMPC:
         distances, closing = self._geometry(h)
         if self.mode is Mode.III and self._reported_mode is Mode.III and self._may_release(h, closing):
             self.mode, self._plan = Mode.I, None
-        if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h_a):
+        if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h_a, t_a - t):
             if closing[self.contact, 0] > self.settings.separation_speed:  # no contact needed: the certificate decides
                 self.mode, self._plan = Mode.I, None
             else:  # Mode II afresh: Algorithm 1's entry
@@ -389,12 +393,30 @@ class SwitchingNMPC:
         protected = self.ocp2(self.contact).protected_clearance
         return min(protected(x) for x in hs[1:]) >= self.feasibility.settings.distance_margin
 
-    def _short_of_contact(self, h: np.ndarray) -> bool:
+    def _short_of_contact(self, h: np.ndarray, lead: float = 0.0) -> bool:
         """With `contact_tolerance`: whether the tip is further than that from the contact plane
         after Mode II's last (N_p = 1) step, so that Mode III, which holds it on the plane from its
-        first interval on, would have to drag it there in one interval."""
+        first interval on, would have to drag it there in one interval. With `contact_reach`, under
+        a latency (h, the state the check reads, predicted `lead` > 0 seconds after the measured
+        one), a tip is not short either when it approaches the plane no faster than Mode II's
+        impact bound allows (ModeIIOCP.allowed_speed) and, at that speed, comes within the
+        tolerance by Mode III's first node, one Mode III interval after the measured state. There
+        the N_p = 1 interval is planned from a prediction and lasts up to twice the delay, and the
+        tip ends a few cm short while still approaching; without a delay one more short Mode II
+        step costs no time and slows the tip (docs/decisions.md, 'The tip within 1 cm before Mode
+        III')."""
         tol = self.settings.contact_tolerance
-        return tol is not None and float(tip_gap(self.model, h, self.planes[self.contact])) > tol
+        if tol is None:
+            return False
+        plane = self.planes[self.contact]
+        gap = float(tip_gap(self.model, h, plane))
+        if gap <= tol:
+            return False
+        if not self.settings.contact_reach or lead <= 0.0:
+            return True
+        speed = impact.approach_speed(self.model, h, plane)
+        reach = speed * max(self.settings.mode3.dt - lead, 0.0)
+        return not (0.0 < speed <= self.ocp2(self.contact).allowed_speed(h) and gap <= tol + reach)
 
     def _deadline(self, h: np.ndarray, cert: Certificate) -> bool:
         """With `deploy_deadline`: whether the braking rollout brings something Mode II protects (every

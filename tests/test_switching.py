@@ -147,6 +147,71 @@ def test_mode_twos_last_step_commits_its_thrust_with_the_joints_unpowered(params
     assert entry.horizon > 1 and entry.commit_after is None
 
 
+@pytest.mark.slow
+def test_a_tip_short_of_the_plane_but_reaching_it_by_mode_threes_first_node_hands_over(params, scene) -> None:
+    """`contact_reach` (the default) under a 50 ms latency, the controller just past Mode II's
+    N_p = 1 step, the check reading the state predicted 50 ms on (given as `ahead`): the arm swung
+    back from its on-the-wall posture (Wall_InvKin) until the tip is 3 cm off, the hull approaching
+    at 0.2 m/s and the joints turning the tip away from, slowly towards or fast towards the wall.
+    The tip's gap and approach speed are measured independently of the controller's Jacobian: by
+    finite differences of the gap along the model's own motion (RK4 over 1e-5 s). A tip that at
+    that speed comes within the 1 cm tolerance by Mode III's first node (one 0.1 s interval after
+    the measured state: 0.05 s after the predicted one) within the impact bound's speed is handed
+    over to Mode III; one that moves away, or faster than the bound allows, gets Mode II afresh;
+    so does every one without `contact_reach`, or without a delay."""
+    from controller.transcription import tip_gap
+
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, wall_approach(0.15, 0.2))
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    plane, n, nv = scene.planes[wall], params.n_joints, model.n_speeds
+    joints = slice(6, 6 + n)
+    settings = SwitchingSettings()
+    q_on = SwitchingNMPC(model, scene.planes, ref, settings).ocp3(wall).onto_plane(h)
+    back = h[joints] - q_on  # the stowed posture's direction: the gap grows along it
+
+    def swung(s: float, speed: float) -> np.ndarray:
+        x = h.copy()
+        x[joints] = q_on + s * back
+        x[nv + 6:nv + 6 + n] = -speed * back  # joint rates towards the wall
+        return x
+
+    s = 0.0
+    while float(tip_gap(model, swung(s, 0.0), plane)) < 0.03:
+        s += 0.002
+    dt = 1e-5
+
+    def measured(x: np.ndarray) -> tuple[float, float]:
+        gap = float(tip_gap(model, x, plane))
+        return gap, (gap - float(tip_gap(model, model.step(x, np.zeros(model.n_inputs), dt), plane))) / dt
+
+    latency = 0.05
+
+    def mode_after(x: np.ndarray, reach: bool, lead: float | None = latency) -> tuple[Mode, Fallback]:
+        ctl = SwitchingNMPC(model, scene.planes, ref, replace(settings, contact_reach=reach))
+        ctl.mode, ctl._reported_mode, ctl.contact = Mode.III, Mode.II, wall  # Algorithm 1's hand-over pending
+        info = ctl.step(x, -latency, None if lead is None else (x, 0.0))[1]  # x: as if predicted at t + L
+        return info.mode, info.fallback
+
+    ocp2 = SwitchingNMPC(model, scene.planes, ref, settings).ocp2(wall)
+    tol, first_node = settings.contact_tolerance, settings.mode3.dt
+    decided = []
+    for rate in (-0.2, 0.5, 4.0):  # along `back` [1/s]: turning away, reaching, beyond the impact bound
+        x = swung(s, rate)
+        gap, speed = measured(x)
+        allowed = ocp2.allowed_speed(x)
+        reaches = 0.0 < speed <= allowed and gap <= tol + speed * (first_node - latency)
+        margin = min(abs(gap - tol - speed * (first_node - latency)), abs(speed - allowed))
+        assert gap > tol and margin > 0.005, (gap, speed, allowed)  # far from the rule's edges
+        mode, fallback = mode_after(x, reach=True)
+        handed_over = mode is Mode.III or fallback is Fallback.REDEPLOY  # (its first solve may fail)
+        assert handed_over == reaches, (rate, gap, speed, allowed)
+        assert mode_after(x, reach=False)[0] is Mode.II
+        assert mode_after(x, reach=True, lead=None)[0] is Mode.II
+        decided.append(reaches)
+    assert decided == [False, True, False]  # each branch of the rule met once
+
+
 def test_mode_three_plans_over_its_thrust_horizon_only_while_a_thruster_lives(params, scene) -> None:
     """mode3.thrust_horizon=3, the tip put on the wall by Wall_InvKin: with live thrusters Mode III's
     step plans 3 intervals (its plan has 3 inputs and 4 states); once every thruster is known dead
