@@ -403,8 +403,8 @@ class SwitchingNMPC:
         tolerance by Mode III's first node, one Mode III interval after the measured state. There
         the N_p = 1 interval is planned from a prediction and lasts up to twice the delay, and the
         tip ends a few cm short while still approaching; without a delay one more short Mode II
-        step costs no time and slows the tip (docs/decisions.md, 'The tip within 1 cm before Mode
-        III')."""
+        step costs no time and slows the tip (docs/decisions.md, 'Under a latency, a tip still
+        approaching counts as on the plane')."""
         tol = self.settings.contact_tolerance
         if tol is None:
             return False
