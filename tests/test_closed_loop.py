@@ -162,10 +162,12 @@ def test_the_wrist_sensor_reads_each_periods_mean_contact_force(latency, monkeyp
 class _Planner:
     """Returns at step k the plan P_k (three rows, each entry 0.01 (10 k + row) N or N m, within every
     bound), its first row as the input, with a 0.1 s period; its step advances the loop's clock by
-    0.08 s at the steps in `slow` and by 1 ms otherwise."""
+    `slow_by` seconds at the steps in `slow` and by `fast_by` otherwise."""
 
-    def __init__(self, clock: list[float], slow: set[int], split: bool = False):
+    def __init__(self, clock: list[float], slow: set[int], split: bool = False, slow_by: float = 0.08,
+                 fast_by: float = 0.001):
         self.clock, self.slow, self.k, self.told, self.split = clock, slow, 0, [], split
+        self.slow_by, self.fast_by = slow_by, fast_by
 
     def late(self, u) -> None:
         self.told.append((self.k - 1, np.array(u, float)))
@@ -178,7 +180,7 @@ class _Planner:
 
     def step(self, h, t):
         from controller.protocol import StepInfo
-        self.clock[0] += 0.08 if self.k in self.slow else 0.001
+        self.clock[0] += self.slow_by if self.k in self.slow else self.fast_by
         plan, self.k = self.plan(self.k), self.k + 1
         if self.split:  # the last row committed past the plan's end
             return plan[0], StepInfo(t=t, dt=0.1, mode="plan", u_pred=plan[:2], commit_after=plan[2:])
@@ -227,6 +229,41 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, split,
     assert [k for k, _ in ctl.told] == ([2, 3, 4] if strict else [])
     for (k, told), (_, applied) in zip(ctl.told, late, strict=False):
         np.testing.assert_array_equal(told, applied, err_msg=f"told after step {k}")
+
+
+@pytest.mark.parametrize("split", [False, True])
+def test_a_measured_delay_plays_the_committed_rows_once_an_inputs_period_has_run_out(split, monkeypatch) -> None:
+    """latency "measured": each step's delay is its computation time on the loop's clock (a fake one,
+    advanced by the controller: 0.03 s a step, 0.23 s at step 2; periods 0.1 s). The first input
+    acts for its period from the start; each later one from its arrival for one period, then the
+    rows its step committed, one period each, the last held. So step 1's delay plays P_0's second
+    row (P_0[0]'s period ended at 0.1 s), step 2's delay P_1[0] for the 0.03 s left of its period,
+    then P_1[1] and P_1[2] for 0.1 s each; P_2[0], arriving at 0.43 s when step 3 samples, acts
+    over step 3's delay. The oracle is the plans themselves (every input the plant receives is
+    logged, Plant.step); with `split` the last row comes as StepInfo.commit_after: the same inputs."""
+    import validation.closed_loop as loop
+    from uvms_mj.plant import Plant
+
+    clock, calls, step = [0.0], [], Plant.step
+
+    def logged(self, u, duration):
+        calls.append((round(self.t, 6), np.array(u, float)))
+        return step(self, u, duration)
+
+    monkeypatch.setattr(Plant, "step", logged)
+    monkeypatch.setattr(loop.time, "perf_counter", lambda: clock[0])
+    monkeypatch.setattr(loop.time, "sleep", lambda seconds: None)
+    ctl = _Planner(clock, slow={2}, split=split, slow_by=0.23, fast_by=0.03)
+    sc = get("wall-headon").with_overrides({"duration": "0.6", "faults": "none", "current.velocity": "0,0,0"})
+    s = run(sc, controller=ctl, mismatch=NONE, latency="measured")
+    P = ctl.plan
+    expected = [(0.0, P(0)[0]), (0.1, P(0)[1]), (0.13, P(1)[0]), (0.2, P(1)[0]), (0.23, P(1)[1]), (0.33, P(1)[2]),
+                (0.43, P(2)[0]), (0.46, P(3)[0]), (0.53, P(3)[0]), (0.56, P(4)[0])]
+    assert [t for t, _ in calls] == pytest.approx([t for t, _ in expected])
+    for (t, got), (_, want) in zip(calls, expected, strict=True):
+        np.testing.assert_array_equal(got, want, err_msg=f"input at t = {t}")
+    assert [st.delay for st in s.steps] == pytest.approx([0.0, 0.03, 0.23, 0.03, 0.03])
+    assert s.overruns == 0 and not ctl.told
 
 
 def test_overrides_parse_numbers_and_tuples() -> None:

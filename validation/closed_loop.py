@@ -8,20 +8,25 @@ the scenario declares known; nothing else about the plant (its fluid model, cont
 friction, the mismatch) is shared.
 
 Latency (`latency`, "none" by default: the plant waits for the controller). With a number of
-seconds L each step's input reaches the thrusters L after its state was sampled, the previous input
-acting meanwhile, and the controller is told L (Task.latency) so that it can plan for it;
-"measured" uses each step's own wall-clock time (outcomes then depend on the machine and its load;
-the loop runs no faster than real time). "@MODES" (e.g. "0.1@II,III") delays only the steps
-computed in those modes (the controller is then told no delay). A step whose computation takes
-longer than L is an overrun, counted per mode (Summary.solve_time, StepRecord.overrun).
+seconds L each step's input reaches the thrusters L after its state was sampled, and the controller
+is told L (Task.latency) so that it can plan for it; "measured" uses each step's own wall-clock time
+(outcomes then depend on the machine and its load; the loop runs no faster than real time). "@MODES"
+(e.g. "0.1@II,III") delays only the steps computed in those modes (the controller is then told no
+delay). A step whose computation takes longer than L is an overrun, counted per mode
+(Summary.solve_time, StepRecord.overrun). Meanwhile the actuators go on as a vehicle's would: the
+acting input for what is left of its period (one period of its step from its arrival), then the
+inputs its step committed in advance (below), one period each. Under a fixed L up to the period
+that is the previous input throughout; a measured delay longer than the rest of the period, or a
+delayed step after an undelayed one, plays the committed rows.
+
+The inputs committed in advance by the last accepted step: the next rows of its plan
+(StepInfo.u_pred, whose first row is the input it returned, then StepInfo.commit_after), and its
+last input held once the plan runs out (a controller without a plan: its last input).
 
 Strict real time (":strict" after a number of seconds, `--strict`): an overrun's answer is
-discarded, as if its computation had been cut at L, and the input the controller committed in
-advance is applied instead for one period of its last accepted step: the next input of that step's
-plan (StepInfo.u_pred, whose first row is the input it returned, then StepInfo.commit_after), one
-further row per consecutive overrun, and its last input held once the plan runs out (a controller
-without a plan: its last input). The controller is told through the protocol's optional
-`late(u)`, with the input applied.
+discarded, as if its computation had been cut at L, and the next committed input is applied instead
+for one period of the last accepted step, one further row per consecutive overrun. The controller
+is told through the protocol's optional `late(u)`, with the input applied.
 
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
 tip, and only the tip, touch. A stowed arm that hits the wall before the hull spares the hull but is
@@ -237,7 +242,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     steps: list[StepRecord] = []
     origin = manifest.start() if out is not None else None
     wall_clock, u_prev, paced_from = time.perf_counter(), None, None
-    committed = Committed()
+    committed = Committed(ts)
     sense = getattr(ctl_obj, "sense", None)  # the protocol's optional wrist force/torque sensor
     late = getattr(ctl_obj, "late", None)  # the protocol's optional notice of a discarded answer
     wrist, sensed_for = np.zeros(6), 0.0  # the wrist's contact impulse [N s, N m s] and its period [s]
@@ -257,6 +262,8 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             mode = label(info.mode)
             undelayed = u_prev is None or (mode in {m.value for m in Mode} and Mode(mode) not in spec.modes)
             overrun = not undelayed and spec.seconds not in (None, 0.0) and computed > spec.seconds
+            delay = 0.0 if undelayed else round((computed if spec.seconds is None else spec.seconds) / ts) * ts
+            meanwhile = committed.meanwhile(u_prev, delay)
             if overrun and spec.strict:
                 u, period = committed.take(u_prev)
                 if late is not None:
@@ -266,8 +273,8 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
             else:
                 committed.accept(info)
             dt = max(ts, round(info.dt / ts) * ts)
-            delay = 0.0 if undelayed else round((computed if spec.seconds is None else spec.seconds) / ts) * ts
-            segments = [(u_prev, delay), (u, dt - delay)] if delay > 0 else [(u, dt)]
+            segments = [*meanwhile, (u, dt - delay)]
+            committed.left = min(spec.told if undelayed else delay, dt)  # the first input acts until the told L
             for u_seg, duration in [(us, piece) for us, d in segments for piece in _pieces(d, ts, chunk)]:
                 t_seg = plant.t
                 report = plant.step(u_seg, duration)
@@ -311,19 +318,34 @@ LATE = "committed input (the step overran its latency)"
 
 
 class Committed:
-    """The inputs a controller committed in advance (the module docstring's strict real time): the
-    rest of its last accepted step's plan, and that step's period."""
+    """The inputs a controller committed in advance (the module docstring's strict real time and
+    actuators): the rest of its last accepted step's plan, that step's period, and what is left of
+    the acting input's period at the next sample [s]."""
 
-    def __init__(self) -> None:
+    def __init__(self, ts: float) -> None:
+        self.ts = ts  # the physics timestep [s]: periods are its multiples
         self.inputs: list[np.ndarray] = []
         self.period = 0.0
+        self.left = 0.0
+
+    def meanwhile(self, acting: np.ndarray | None, delay: float) -> list[tuple[np.ndarray, float]]:
+        """The inputs over a step's delay [s] and for how long each [s]: `acting` for what is left of
+        its period, then the committed rows (take), each for a period; [] without a delay."""
+        pieces = [(acting, min(self.left, delay))] if delay > 0.0 and self.left > 0.0 else []
+        covered = sum(d for _, d in pieces)
+        while covered < delay - 1e-9:
+            u, period = self.take(acting)
+            pieces.append((u, min(period, delay - covered)))
+            covered += period
+        return pieces
 
     def accept(self, info: StepInfo) -> None:
         """A step's answer is applied: its plan's later rows, then its rows past the plan's end
         (StepInfo.commit_after), are what it commits to."""
         plan = [] if info.u_pred is None else list(np.asarray(info.u_pred, float)[1:])
         plan += [] if info.commit_after is None else list(np.asarray(info.commit_after, float))
-        self.inputs, self.period = [np.asarray(row, float) for row in plan], float(info.dt)
+        self.inputs = [np.asarray(row, float) for row in plan]
+        self.period = max(self.ts, round(float(info.dt) / self.ts) * self.ts)
 
     def take(self, last: np.ndarray) -> tuple[np.ndarray, float]:
         """The input to apply for an overrun, and for how long [s]: the plan's next row, else `last`."""
