@@ -30,6 +30,13 @@ def test_bad_state_is_rejected_in_one_line(params, scene) -> None:
         assert "\n" not in str(err.value)
 
 
+@pytest.mark.parametrize("share", [0.0, 1.5, float("nan")])
+def test_a_certificate_budget_outside_the_latency_is_rejected_in_one_line(share) -> None:
+    with pytest.raises(ValueError, match="allowed") as err:
+        SwitchingSettings(certificate_budget=share)
+    assert "\n" not in str(err.value)
+
+
 def test_solver_failure_falls_back_to_braking_within_bounds(params, scene) -> None:
     """Mode I capped at 1 SQP iteration that is not accepted as a real-time iterate fails on an
     approach at 0.3 m/s (from the held state the linearization's iterate violates the dynamics);
