@@ -9,8 +9,9 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    Mode I plan shifted by one interval, and then under a fresh Mode I plan (the caller's solve,
    asked for only when the other screens fail). If every clearance at every node of a rollout
    stays above the margin (and the plan's inputs and joint angles within their bounds), that
-   rollout is a point of F: feasible, certified. When the answer matters (the caller's `needed`),
-   the fresh plan continued by Mode I's SQP with a line search (the caller's `refine`, up to
+   rollout is a point of F: feasible, certified. Once the braking rollout has failed the caller is
+   asked whether the answer matters (`needed`); if not, nothing more is solved. Then, the fresh plan
+   continued by Mode I's SQP with a line search (the caller's `refine`, up to
    `CertificateSettings.refine_iterations`), stopped at its first iterate that passes that test:
    Mode I's real-time plans near a wall violate its dynamics by tens of newtons, so their
    re-simulation rarely passes, while a few globalized iterations usually do.
@@ -23,8 +24,6 @@ saying so, so a failed Mode I solve proves nothing. The test here has two stages
    positive local minimum is strong evidence, not a proof. An iterate feasible at IPOPT's cap counts
    with its slack sum (an upper bound); if IPOPT fails on this always-feasible problem, F is
    declared empty (the safe side) with an infinite violation. Evidence: docs/decisions.md.
-   When the caller's step has a time budget (a latency), this problem is not solved: F stays
-   UNDECIDED (Method.BUDGET), and the caller's deploy deadline still switches.
 """
 
 from __future__ import annotations
@@ -56,7 +55,6 @@ class Method(Enum):
     REFINED_PLAN = "Mode I's plan, continued by the SQP with a line search"
     MINIMUM_VIOLATION = "minimum violation"
     SCREENS = "screens only"
-    BUDGET = "the screens within the step's time budget (a latency's), the minimum-violation problem not solved"
 
 
 @dataclass(frozen=True)
@@ -93,7 +91,6 @@ class FeasibilityTest:
         self.tolerance = certificate.tolerance
         self._witness: np.ndarray | None = None  # the states of the last witness
         self._clearances: dict = {}  # min_clearance's mapped clearance functions, by number of nodes
-        self._first = 0.0  # s: the last continuation's first iteration, with its set-up (continued's budget)
         cold = replace(settings, max_iter=certificate.max_iter, ipopt_options={
             "warm_start_init_point": "no", "mu_init": certificate.mu_init, **settings.ipopt_options})
         self.problem = ModeIOCP(model, planes, cold, min_violation=True, stop=self.is_witness)
@@ -142,50 +139,38 @@ class FeasibilityTest:
         return hs if self.plan_is_feasible(hs, us) else None
 
     def continued(self, ocp: ModeIOCP, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None,
-                  start: np.ndarray, until: float | None = None) -> tuple[np.ndarray, OCPSolution] | None:
+                  start: np.ndarray) -> tuple[np.ndarray, OCPSolution] | None:
         """Mode I's plan from the primal start `start` (ocp's layout) continued by ocp's SQP with a
         line search for up to `CertificateSettings.refine_iterations`, stopped at its first iterate
         whose inputs re-simulate from h0 to a point of F: (those states (N+1, ns), the STOPPED
-        solution), else None (also when ocp is not solved by the SQP). `until` (time.perf_counter's
-        seconds): it does not start when its first iteration would end after it at the last call's
-        pace, nor go on when the next would at the last iteration's."""
+        solution), else None (also when ocp is not solved by the SQP)."""
         n = self.certificate.refine_iterations
-        if n < 1 or ocp.sqp is None or (until is not None and time.perf_counter() + self._first >= until):
+        if n < 1 or ocp.sqp is None:
             return None
         witness: dict = {}
-        last = [time.perf_counter(), 0]
 
         def passes(u: np.ndarray) -> bool:
             witness["h"] = self.resimulated_if_feasible(h0, u, current)
-            now = time.perf_counter()
-            pace, last[0], last[1] = now - last[0], now, last[1] + 1
-            if last[1] == 1:
-                self._first = pace
-            return witness["h"] is not None or (until is not None and now + pace >= until)
+            return witness["h"] is not None
 
         sol = ocp.solve(h0, h_ref, current, guess=start, stop=passes,
                         sqp=replace(ocp.settings.sqp, max_iter=n, line_search=True, real_time=False))
-        if last[1] == 0:  # ended in its first iteration (converged, or its QP failed)
-            self._first = time.perf_counter() - last[0]
-        found = sol.status is SolverStatus.STOPPED and witness["h"] is not None
-        return (witness["h"], sol) if found else None
+        return (witness["h"], sol) if sol.status is SolverStatus.STOPPED else None
 
     def __call__(self, h0: np.ndarray, h_ref: np.ndarray, current: np.ndarray | None = None,
                  previous: OCPSolution | None = None, plan: tuple[np.ndarray, np.ndarray] | None = None,
                  fresh: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None,
                  needed: Callable[[Certificate], bool] | None = None,
-                 refine: Callable[[Certificate], tuple[np.ndarray, np.ndarray] | None] | None = None,
-                 budget: bool = False) -> Certificate:
+                 refine: Callable[[Certificate], tuple[np.ndarray, np.ndarray] | None] | None = None
+                 ) -> Certificate:
         """The verdict for the measured state h0. `plan`: the previous Mode I plan shifted by one
         interval, as (states re-simulated from h0, inputs): the second screen. `fresh`: called
         when the screens before it fail, returns a new Mode I plan in the same form (or None): the
-        third. `needed`: called with the screens' UNDECIDED certificate before the minimum-violation
-        problem; when it returns False (the caller's decision does not depend on the answer) the
-        problem is not solved and that certificate is returned. `refine`: called next with that
-        certificate, returns a further plan in the same form (the fresh one continued) or None:
-        the fourth screen. `budget`: the step's time is bounded (a latency): when the screens have
-        not certified F, UNDECIDED (Method.BUDGET) instead of the minimum-violation problem, which
-        takes 0.3 s and more (the caller bounds `refine` itself)."""
+        third. `needed`: called with an UNDECIDED certificate when the braking rollout fails, before
+        the other screens; when it returns False (the caller's decision does not depend on the
+        answer) that certificate is returned, with neither those screens nor the minimum-violation
+        problem solved. `refine`: called with it when the screens fail, returns a further plan in
+        the same form (the fresh one continued) or None: the fourth screen."""
         t0 = time.perf_counter()
         hs, us = self.braking_rollout(h0, current)
         margin = self.min_clearance(hs) - self.settings.distance_margin
@@ -195,20 +180,18 @@ class FeasibilityTest:
 
         if margin >= 0:
             return found(Method.BRAKING_ROLLOUT)
+        undecided = Certificate(Verdict.UNDECIDED, Method.SCREENS, np.nan, margin, time.perf_counter() - t0, None,
+                                hs, us)
+        if needed is not None and not needed(undecided):
+            return replace(undecided, solve_time=time.perf_counter() - t0)
         if plan is not None and self.plan_is_feasible(*plan):
             return found(Method.PREVIOUS_PLAN)
         candidate = fresh() if fresh is not None else None
         if candidate is not None and self.plan_is_feasible(*candidate):
             return found(Method.MODE_I_PLAN)
-        undecided = Certificate(Verdict.UNDECIDED, Method.SCREENS, np.nan, margin, time.perf_counter() - t0, None,
-                                hs, us)
-        if needed is not None and not needed(undecided):
-            return undecided
         refined = refine(undecided) if refine is not None else None
         if refined is not None and self.plan_is_feasible(*refined):
             return found(Method.REFINED_PLAN)
-        if budget:
-            return replace(undecided, method=Method.BUDGET, solve_time=time.perf_counter() - t0)
         start = candidate if candidate is not None else (hs, us)
         sol = self.problem.solve(h0, h_ref, current, previous, guess=self.problem.guess_from_rollout(*start))
         return self.judge(sol, margin, time.perf_counter() - t0, hs, us)

@@ -104,15 +104,6 @@ class SwitchingSettings:
     # node while Mode II runs, and Mode III's first solve starts from its newest answer
     # (controller.mode3_entry; not Algorithm 2's guess, cold)
     mode3_entry_helper: bool = False
-    # under a latency L (told or assumed): Mode I's certificate refines its fresh plan only until this
-    # share of L after the step began and does not solve its minimum-violation problem (0.3 s and more);
-    # F then stays undecided, Mode I goes on and the deploy deadline still switches. None: unbounded
-    certificate_budget: float | None = None
-
-    def __post_init__(self) -> None:
-        share = self.certificate_budget
-        if share is not None and not 0.0 < share <= 1.0:
-            raise ValueError(f"certificate_budget = {share}; allowed: a share of the latency in (0, 1], or none")
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""
@@ -190,7 +181,6 @@ class SwitchingNMPC:
         self._reported_mode = Mode.I
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
-        self.deadline: float | None = None  # time.perf_counter's s: the step's certificate budget (its caller's)
         self._deploy: tuple[ModeIIOCP, np.ndarray, tuple] | None = None  # the deadline's deploy rollout this step
         self._helper: EntryHelper | None = None  # Mode III's entry solved ahead (start_entry_helper)
 
@@ -347,14 +337,14 @@ class SwitchingNMPC:
             a line search to a witness (the certificate's fourth screen), then Mode I's plan."""
             usable = "sol" in fresh and fresh["sol"].status.usable
             start = fresh["sol"].w if usable else ocp.guess_from_rollout(screened.rollout, screened.rollout_inputs)
-            found = self.feasibility.continued(ocp, h, ref, self.current, start, until=self.deadline)
+            found = self.feasibility.continued(ocp, h, ref, self.current, start)
             if found is None:
                 return None
             before = fresh["sol"].solve_time if "sol" in fresh else 0.0
             fresh["h"], fresh["sol"] = found[0], replace(found[1], solve_time=found[1].solve_time + before)
             return fresh["h"], fresh["sol"].u
 
-        deadline: bool | None = None  # the deploy deadline, when it was asked before the minimum-violation problem
+        deadline = False  # the deploy deadline, asked by the certificate once its braking rollout has failed
 
         def needed(screened: Certificate) -> bool:
             """Whether F's answer still matters: not when the deploy deadline switches either way."""
@@ -362,11 +352,11 @@ class SwitchingNMPC:
             deadline = self._deadline(h, screened)
             return not deadline
 
-        cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now, needed=needed, refine=refine,
-                                budget=self.deadline is not None) if self.settings.switching else None
+        cert = self.feasibility(h, ref, self.current, plan=shifted, fresh=solve_now, needed=needed, refine=refine) \
+            if self.settings.switching else None
         if cert is not None and cert.verdict is Verdict.INFEASIBLE:
             self._switch = SwitchReason.F_EMPTY if np.isfinite(cert.violation) else SwitchReason.SOLVER_FAILURE
-        elif deadline or (cert is not None and deadline is None and self._deadline(h, cert)):
+        elif deadline:  # asked whenever the braking rollout failed (else it cannot fire)
             self._switch = SwitchReason.DEPLOY_DEADLINE
         if self._switch is not None:
             self.contact = self._closest_plane(cert.rollout)
@@ -603,7 +593,6 @@ class SwitchingController:
     def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, StepInfo]:
         if self.nmpc is None or self._task is None:
             raise ValueError("step before reset; allowed: reset(task) first")
-        begun = time.perf_counter()
         failed = self._task.failed_thrusters(t)
         if failed != self._failed:
             self.nmpc.set_failed_thrusters(failed)
@@ -616,8 +605,6 @@ class SwitchingController:
             untaught = self._trim is not None and not free and not self.observer.updates
             known = known + (self._trim if untaught else self.observer.estimate)
         self.nmpc.current = known
-        share = self.settings.certificate_budget
-        self.nmpc.deadline = None if share is None or self.latency == 0.0 else begun + share * self.latency
         if self._started and self.latency > 0.0:  # the first step's input acts at once
             ahead = self.nmpc.predict(h, self.nmpc.last_u, self.latency), t + self.latency
             u, info = self.nmpc.step(h, t, ahead)

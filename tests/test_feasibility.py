@@ -240,34 +240,3 @@ def test_continued_plan_certifies_where_every_screen_fails(params) -> None:
     assert test.plan_is_feasible(simulate(model, h0, sol.u, test.settings.dt, substeps=20, current=current), sol.u)
     c = test(h0, rec["h_ref"], current, fresh=lambda: (rec["fresh_h"], rec["fresh_u"]), refine=lambda _: (hs, sol.u))
     assert (c.verdict, c.method, c.solution) == (Verdict.FEASIBLE, Method.REFINED_PLAN, None)
-
-
-@pytest.mark.slow
-def test_a_time_budget_bounds_the_refinement_and_skips_the_minimum_violation_problem(params) -> None:
-    """The recorded wall-oblique call of the two tests above, whose fresh plan fails every screen.
-    A refinement whose deadline has passed does not start (Mode I's solve is not called); one with
-    an unbounded deadline is the unbounded refinement, to the bit. With a budget and no witness the
-    certificate is UNDECIDED (Method.BUDGET) without a solve (no solution, violation nan), where the
-    unbounded test certifies it through the minimum-violation problem (the test above)."""
-    from validation import mismatch, scenarios
-    from validation.closed_loop import build_plant
-
-    controller_params, scene, _, _ = build_plant(scenarios.get("wall-oblique"), mismatch.DEFAULT, 1)
-    model = UVMSModel(controller_params, scene.water)
-    test = FeasibilityTest(model, scene.planes, certificate=CertificateSettings(refine_iterations=16))
-    ocp = ModeIOCP(model, scene.planes)
-    rec = recorded("wall_oblique_fresh_plan_call.npz")
-    test.limit_inputs(rec["input_lo"], rec["input_hi"])
-    ocp.limit_inputs(rec["input_lo"], rec["input_hi"])
-    h0, current, start = rec["h0"], rec["current"], ocp.guess_from_rollout(rec["fresh_h"], rec["fresh_u"])
-    solves, solve = [], ocp.solve
-    ocp.solve = lambda *a, **k: solves.append(1) or solve(*a, **k)
-    assert test.continued(ocp, h0, rec["h_ref"], current, start, until=0.0) is None and not solves
-    hs, sol = test.continued(ocp, h0, rec["h_ref"], current, start)
-    hs_inf, sol_inf = test.continued(ocp, h0, rec["h_ref"], current, start, until=np.inf)
-    np.testing.assert_array_equal(hs_inf, hs)
-    np.testing.assert_array_equal(sol_inf.u, sol.u)
-    assert sol_inf.iterations == sol.iterations
-    c = test(h0, rec["h_ref"], current, fresh=lambda: (rec["fresh_h"], rec["fresh_u"]), refine=lambda _: None,
-             budget=True)
-    assert (c.verdict, c.method, c.solution) == (Verdict.UNDECIDED, Method.BUDGET, None) and np.isnan(c.violation)
