@@ -32,12 +32,12 @@ from typing import Any
 import numpy as np
 
 from controller import impact
+from controller.entries_ahead import ContactEntry, DeployEntry, EntryHelper
 from controller.estimator import CurrentObserver, ObserverSettings
 from controller.feasibility import Certificate, CertificateSettings, FeasibilityTest, Method, Verdict
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
 from controller.mode2 import ModeIIOCP, ModeIISettings, ModeIISolution, next_horizon, shifted_guess
 from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
-from controller.mode3_entry import EntryHelper, EntryRequest
 from controller.model import ModelOptions, UVMSModel, water
 from controller.protocol import StepInfo, Task
 from controller.rollouts import BrakingPolicy, JointHold, simulate
@@ -102,8 +102,12 @@ class SwitchingSettings:
     model_joint_damping: bool = True
     # under a declared latency, a helper process solves Mode III's entry from each Mode II plan's last
     # node while Mode II runs, and Mode III's first solve starts from its newest answer
-    # (controller.mode3_entry; not Algorithm 2's guess, cold)
+    # (controller.entries_ahead; not Algorithm 2's guess, cold)
     mode3_entry_helper: bool = False
+    # under a declared latency, the same helper solves Mode II's deploy from each Mode I plan's next node
+    # while Mode I's braking rollout fails, and a switch in the next step starts Mode II's first solve
+    # from that answer (not the deploy guess, cold)
+    mode2_entry_helper: bool = False
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""
@@ -182,10 +186,11 @@ class SwitchingNMPC:
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
         self._deploy: tuple[ModeIIOCP, np.ndarray, tuple] | None = None  # the deadline's deploy rollout this step
-        self._helper: EntryHelper | None = None  # Mode III's entry solved ahead (start_entry_helper)
+        self._helper: EntryHelper | None = None  # mode entries solved ahead (start_entry_helper)
+        self._t = 0.0  # s: the time of the state this step plans from
 
     def start_entry_helper(self) -> None:
-        """Fork the process that solves Mode III's entry ahead (controller.mode3_entry)."""
+        """Fork the process that solves mode entries ahead (controller.entries_ahead)."""
         if self._helper is None:
             self._helper = EntryHelper(self)
 
@@ -287,6 +292,7 @@ class SwitchingNMPC:
             raise ValueError(f"state has shape {h.shape} or non-finite entries; allowed: "
                              f"{self.model.n_states} finite numbers")
         h_a, t_a = (h, t) if ahead is None else (np.asarray(ahead[0], float), float(ahead[1]))
+        self._t = t_a
         distances, closing = self._geometry(h)
         if self.mode is Mode.III and self._reported_mode is Mode.III and self._may_release(h, closing):
             self.mode, self._plan = Mode.I, None
@@ -371,6 +377,11 @@ class SwitchingNMPC:
         if sol.status.usable:
             self._plan = sol
             hp = fresh["h"] if "h" in fresh else self._resimulate(h, sol.u, s.dt)
+            if self._helper is not None and self.settings.mode2_entry_helper and cert is not None \
+                    and cert.rollout_clearance < 0:  # Mode II's deploy from where the next step plans
+                self._helper.submit(DeployEntry(self._closest_plane(cert.rollout), self.settings.mode2.horizon,
+                                                hp[1].copy(), t + s.dt, self.current.copy(), self.lo.copy(),
+                                                self.hi.copy()))
             return _ModeStep(sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon, hp, sol.u,
                              certificate=cert)
         if previous is not None:
@@ -445,6 +456,17 @@ class SwitchingNMPC:
         t_deploy = len(guess[1]) * guess[2] if t_c is None else t_c
         return s.dt * (1 + close.index(True)) <= t_deploy + s.dt + self.settings.deadline_lead
 
+    def _deploy_ahead(self, N: int) -> ModeIISolution | None:
+        """With `mode2_entry_helper`, at Mode II's entry (Algorithm 1's longest horizon N): the deploy
+        the helper solved for this plane at a state within half a Mode I period of this step's, if
+        one has come back (controller.entries_ahead)."""
+        if self._helper is None or not self.settings.mode2_entry_helper or N != self.settings.mode2.horizon:
+            return None
+        answer = self._helper.take(DeployEntry, self.contact, N)
+        if answer is None or abs(answer[0].t - self._t) > self.settings.mode1.dt / 2:
+            return None
+        return answer[1]
+
     def _step_mode2(self, h: np.ndarray, cert: Certificate | None = None) -> _ModeStep:
         self._reported_mode = Mode.II
         s, ocp, N = self.settings.mode2, self.ocp2(self.contact), self._horizon2
@@ -454,6 +476,9 @@ class SwitchingNMPC:
             us, dt = shifted_guess(previous, N)
             guess = (self._resimulate(h, us, dt), us, dt)
             duals = ocp.shifted_duals(previous, N)
+        elif (ahead := self._deploy_ahead(N)) is not None:  # the deploy solved ahead, from this step's state
+            guess, duals = (np.vstack([h, ahead.h[1:]]), ahead.u, ahead.dt), (ahead.lam_g, ahead.lam_x)
+            N = len(ahead.u)
         else:  # the deploy rollout, unless the deadline computed it for this state in this step
             ready = (self._deploy is not None and self._deploy[0] is ocp and self._deploy[1] is h
                      and N == self.settings.mode2.horizon)
@@ -470,7 +495,7 @@ class SwitchingNMPC:
             u, fallback = up[0], Fallback.SHIFTED_PLAN if previous is not None else Fallback.GUESS
             self._plan = ModeIISolution(sol.status, hp, up, dt, sol.solve_time, iters, np.nan, sol.w)
         if self._helper is not None:  # Mode III's entry from the state this plan reaches the plane in
-            self._helper.submit(EntryRequest(self.contact, self.ocp3(self.contact).settings.horizon, hp[-1].copy(),
+            self._helper.submit(ContactEntry(self.contact, self.ocp3(self.contact).settings.horizon, hp[-1].copy(),
                                              np.clip(up[-1], self.lo, self.hi), self.current.copy(),
                                              self.lo.copy(), self.hi.copy()))
         # Algorithm 1
@@ -492,7 +517,10 @@ class SwitchingNMPC:
         ocp = self.ocp3(self.contact)
         s = ocp.settings
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
-        ahead = self._helper.take(self.contact, s.horizon) if entry and self._helper is not None else None
+        ahead = None
+        if entry and self._helper is not None and self.settings.mode3_entry_helper:
+            answer = self._helper.take(ContactEntry, self.contact, s.horizon)
+            ahead = None if answer is None else answer[1]
         if previous is not None:  # the Final Algorithm: the plan's recomputed states, shifted, from h
             us = np.vstack([previous.u[1:], previous.u[-1:]])
             Fs = np.vstack([previous.force[1:], previous.force[-1:]])
@@ -583,7 +611,7 @@ class SwitchingController:
         if self.nmpc is not None:
             self.nmpc.close()
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
-        if self.settings.mode3_entry_helper and self.latency > 0.0:
+        if (self.settings.mode3_entry_helper or self.settings.mode2_entry_helper) and self.latency > 0.0:
             self.nmpc.start_entry_helper()
         self.observer = CurrentObserver(model, self.settings.observer) if self.settings.observe_current else None
         water_of = task.scene.water

@@ -167,7 +167,7 @@ class _Planner:
     def __init__(self, clock: list[float], slow: set[int], split: bool = False, slow_by: float = 0.08,
                  fast_by: float = 0.001):
         self.clock, self.slow, self.k, self.told, self.split = clock, slow, 0, [], split
-        self.slow_by, self.fast_by = slow_by, fast_by
+        self.slow_by, self.fast_by, self.began = slow_by, fast_by, []
 
     def late(self, u) -> None:
         self.told.append((self.k - 1, np.array(u, float)))
@@ -180,6 +180,7 @@ class _Planner:
 
     def step(self, h, t):
         from controller.protocol import StepInfo
+        self.began.append(self.clock[0])
         self.clock[0] += self.slow_by if self.k in self.slow else self.fast_by
         plan, self.k = self.plan(self.k), self.k + 1
         if self.split:  # the last row committed past the plan's end
@@ -197,8 +198,10 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, split,
     row applies. Not strict: every answer applies, late or not. The oracle is the plans themselves
     (every input the plant receives is logged, Plant.step); the summary counts the three overruns,
     in the step records and in the mode's timing. The controller is told (`late`) after each
-    discarded answer exactly the input the plant then received in its place, and only then. With
-    `split` each plan's last row comes as StepInfo.commit_after, not in u_pred: the same inputs."""
+    discarded answer exactly the input the plant then received in its place, and only then. Strict,
+    the loop waits (time.sleep, advancing the fake clock) until each step's sample time after the
+    first step's end; not strict, it does not wait. With `split` each plan's last row comes as
+    StepInfo.commit_after, not in u_pred: the same inputs."""
     import validation.closed_loop as loop
     from uvms_mj.plant import Plant
 
@@ -210,6 +213,7 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, split,
 
     monkeypatch.setattr(Plant, "step", logged)
     monkeypatch.setattr(loop.time, "perf_counter", lambda: clock[0])
+    monkeypatch.setattr(loop.time, "sleep", lambda seconds: clock.__setitem__(0, clock[0] + seconds))
     ctl = _Planner(clock, slow={2, 3, 4}, split=split)
     sc = get("wall-headon").with_overrides({"duration": "0.6", "faults": "none", "current.velocity": "0,0,0"})
     s = run(sc, controller=ctl, mismatch=NONE, latency="0.05:strict" if strict else "0.05")
@@ -227,6 +231,10 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, split,
     assert s.overruns == 3 and s.solve_time["plan"].overruns == 3
     assert [st.fallback != "none" for st in s.steps] == [False, False, strict, strict, strict, False]
     assert [k for k, _ in ctl.told] == ([2, 3, 4] if strict else [])
+    costs = [0.08 if k in {2, 3, 4} else 0.001 for k in range(len(s.steps))]
+    unpaced = np.cumsum([0.0, *costs[:-1]])  # each step right after the one before
+    paced = [0.0] + [costs[0] + st.t for st in s.steps[1:]]  # step k at t_k after the first step's end
+    assert ctl.began == pytest.approx(paced if strict else unpaced)
     for (k, told), (_, applied) in zip(ctl.told, late, strict=False):
         np.testing.assert_array_equal(told, applied, err_msg=f"told after step {k}")
 

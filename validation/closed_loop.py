@@ -10,7 +10,7 @@ friction, the mismatch) is shared.
 Latency (`latency`, "none" by default: the plant waits for the controller). With a number of
 seconds L each step's input reaches the thrusters L after its state was sampled, and the controller
 is told L (Task.latency) so that it can plan for it; "measured" uses each step's own wall-clock time
-(outcomes then depend on the machine and its load; the loop runs no faster than real time). "@MODES"
+(outcomes then depend on the machine and its load). "@MODES"
 (e.g. "0.1@II,III") delays only the steps computed in those modes (the controller is then told no
 delay). A step whose computation takes longer than L is an overrun, counted per mode
 (Summary.solve_time, StepRecord.overrun). Meanwhile the actuators go on as a vehicle's would: the
@@ -27,6 +27,10 @@ Strict real time (":strict" after a number of seconds, `--strict`): an overrun's
 discarded, as if its computation had been cut at L, and the next committed input is applied instead
 for one period of the last accepted step, one further row per consecutive overrun. The controller
 is told through the protocol's optional `late(u)`, with the input applied.
+
+A measured delay and strict real time run no faster than real time: each step starts no earlier in
+wall-clock time than its sample time after the first step's end, so that work a controller does
+between its steps (a helper process) gets the time a vehicle would give it.
 
 The verdict counts damage as any contact but the end-effector tip's: the paper's strategy lets the
 tip, and only the tip, touch. A stowed arm that hits the wall before the hull spares the hull but is
@@ -249,7 +253,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     try:
         while plant.t < sc.duration - 1e-9:
             t = plant.t
-            if spec.seconds is None and paced_from is not None:  # measured: no faster than real time
+            if (spec.seconds is None or spec.strict) and paced_from is not None:  # no faster than real time
                 time.sleep(max(0.0, t - (time.perf_counter() - paced_from)))
             if sense is not None and sensed_for > 0.0:
                 sense(wrist / sensed_for)
