@@ -21,8 +21,9 @@ the hand-over, sooner than a solve comes back); a deploy answer serves only the 
 that asked.
 
 Not deterministic (which request each answer answers depends on how long the solves take), so
-the switching controller starts it only under a declared latency, where the loop's timing already
-decides what is late. A helper that dies or raises only stops answering.
+the switching controller starts it only under a latency in a loop on the wall clock (strict real
+time, a measured delay: Task.wall_clock), where the loop's timing already decides what is late.
+A helper that dies or raises only stops answering.
 """
 
 from __future__ import annotations

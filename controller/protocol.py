@@ -50,10 +50,12 @@ class KnownFault:
 class Task:
     """What a controller is told before a run: its (nominal) vehicle, the scene (water, obstacle
     planes, the current it knows: scene.current.at(t) [m/s, world]), the start state, the reference
-    h_ref(t), the faults it is told of, the run's length [s], and the latency [s]: each input but
-    the first step's acts from `latency` after its state's sample until the next input does, the
-    previous input acting meanwhile (0: the plant waits for the controller), and the vehicle's
-    weight in water as a trim check before the run measured it (None: not measured)."""
+    h_ref(t), the faults it is told of, the run's length [s], the latency [s]: each input but the
+    first step's acts from `latency` after its state's sample (0: the plant waits for the
+    controller), whether the world runs on the wall clock (strict real time or a measured delay:
+    what a controller computes between its steps, in another process, competes with the world, not
+    with the loop), and the vehicle's weight in water as a trim check before the run measured it
+    (None: not measured)."""
 
     name: str
     params: UVMSParams
@@ -63,6 +65,7 @@ class Task:
     known_faults: tuple[KnownFault, ...] = ()
     duration: float = 0.0
     latency: float = 0.0  # s: each input reaches the thrusters this long after its state's sample
+    wall_clock: bool = False  # the loop runs at the wall clock's pace (strict real time, a measured delay)
     trim: float | None = None  # N, positive: sinks; whole vehicle, still water, at h0 (uvms_mj Plant.trim_weight)
 
     def failed_thrusters(self, t: float) -> tuple[int, ...]:

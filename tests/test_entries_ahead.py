@@ -6,6 +6,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from controller.entries_ahead import ContactEntry, DeployEntry
 from controller.model import UVMSModel, water
@@ -103,3 +104,22 @@ def test_the_helpers_deploy_is_the_solve_in_this_process_and_starts_mode_two_at_
         assert ctl._step_mode2(h).iterations == here.iterations
     finally:
         ctl.close()
+
+
+@pytest.mark.parametrize(("latency", "wall_clock", "started"), [(0.05, True, True), (0.05, False, False),
+                                                                  (0.0, True, False)])
+def test_the_helper_runs_only_under_a_latency_on_the_wall_clock(params, scene, latency, wall_clock, started) -> None:
+    """The helper is not deterministic (which answer comes back in time depends on the machine), so
+    the controller starts it only where the loop's timing already decides what is late: a latency
+    in a loop paced at the wall clock. A fixed delay the plant waits out, or no delay, stays
+    deterministic."""
+    from controller.protocol import Task
+    from controller.switching import SwitchingController
+
+    h, ref = initial_state(params, wall_approach(0.4, 1.2))
+    ctl = SwitchingController()
+    ctl.reset(Task("helper", params, scene, h, lambda t: ref, latency=latency, wall_clock=wall_clock))
+    try:
+        assert (ctl.nmpc._helper is not None) is started
+    finally:
+        ctl.nmpc.close()

@@ -176,14 +176,15 @@ def switches(reasons: Sequence[Enum | str | None]) -> str:
     return f"{len(made)} ({made.count(SwitchReason.SOLVER_FAILURE.value)} by solver failure)"
 
 
-def task_of(sc: Scenario, params: UVMSParams, scene: Scene, latency: float = 0.0) -> Task:
+def task_of(sc: Scenario, params: UVMSParams, scene: Scene, latency: float = 0.0, wall_clock: bool = False) -> Task:
     """What the controller is told about the scenario (controller.protocol.Task), with the delay
-    [s] its inputs reach the thrusters after their state's sample."""
+    [s] its inputs reach the thrusters after their state's sample and whether the loop runs at the
+    wall clock's pace."""
     h0, _ = initial_state(params, sc)
     ref = reference(params, sc)
     known = tuple(KnownFault(f.thrusters, f.at) for f in sc.faults if f.known and f.mode == "dead")
     return Task(name=sc.name, params=params, scene=scene, h0=h0, reference=ref if callable(ref) else lambda t: ref,
-                known_faults=known, duration=sc.duration, latency=latency)
+                known_faults=known, duration=sc.duration, latency=latency, wall_clock=wall_clock)
 
 
 def make_folders(*paths: Path | None) -> None:
@@ -225,7 +226,7 @@ def run(sc: Scenario, controller: str | Controller = "switching", ctl: dict[str,
     mismatch = mismatches.resolve(mismatch)
     make_folders(out, video.parent if video else None, record.parent if record else None, plots)
     params, scene, plant, drawn = build_plant(sc, mismatch, seed)
-    task = task_of(sc, params, scene, spec.told)
+    task = task_of(sc, params, scene, spec.told, spec.strict or spec.seconds is None)
     plant.reset(task.h0)
     task = replace(task, trim=plant.trim_weight() + drawn.get("trim", 0.0))
     ctl_obj.reset(task)
