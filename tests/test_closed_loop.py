@@ -188,6 +188,24 @@ class _Planner:
         return plan[0], StepInfo(t=t, dt=0.1, mode="plan", u_pred=plan)
 
 
+def _fake_clock(monkeypatch) -> tuple[list[float], list[tuple[float, np.ndarray]]]:
+    """The loop's clock made a fake one (advanced by the controller, and by the loop's waits), and
+    every input the plant receives logged with its time (Plant.step)."""
+    import validation.closed_loop as loop
+    from uvms_mj.plant import Plant
+
+    clock, calls, step = [0.0], [], Plant.step
+
+    def logged(self, u, duration):
+        calls.append((round(self.t, 6), np.array(u, float)))
+        return step(self, u, duration)
+
+    monkeypatch.setattr(Plant, "step", logged)
+    monkeypatch.setattr(loop.time, "perf_counter", lambda: clock[0])
+    monkeypatch.setattr(loop.time, "sleep", lambda seconds: clock.__setitem__(0, clock[0] + seconds))
+    return clock, calls
+
+
 @pytest.mark.parametrize("split", [False, True])
 @pytest.mark.parametrize("strict", [True, False])
 def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, split, monkeypatch) -> None:
@@ -202,18 +220,7 @@ def test_strict_real_time_applies_the_inputs_committed_in_advance(strict, split,
     the loop waits (time.sleep, advancing the fake clock) until each step's sample time after the
     first step's end; not strict, it does not wait. With `split` each plan's last row comes as
     StepInfo.commit_after, not in u_pred: the same inputs."""
-    import validation.closed_loop as loop
-    from uvms_mj.plant import Plant
-
-    clock, calls, step = [0.0], [], Plant.step
-
-    def logged(self, u, duration):
-        calls.append((round(self.t, 6), np.array(u, float)))
-        return step(self, u, duration)
-
-    monkeypatch.setattr(Plant, "step", logged)
-    monkeypatch.setattr(loop.time, "perf_counter", lambda: clock[0])
-    monkeypatch.setattr(loop.time, "sleep", lambda seconds: clock.__setitem__(0, clock[0] + seconds))
+    clock, calls = _fake_clock(monkeypatch)
     ctl = _Planner(clock, slow={2, 3, 4}, split=split)
     sc = get("wall-headon").with_overrides({"duration": "0.6", "faults": "none", "current.velocity": "0,0,0"})
     s = run(sc, controller=ctl, mismatch=NONE, latency="0.05:strict" if strict else "0.05")
@@ -249,18 +256,7 @@ def test_a_measured_delay_plays_the_committed_rows_once_an_inputs_period_has_run
     then P_1[1] and P_1[2] for 0.1 s each; P_2[0], arriving at 0.43 s when step 3 samples, acts
     over step 3's delay. The oracle is the plans themselves (every input the plant receives is
     logged, Plant.step); with `split` the last row comes as StepInfo.commit_after: the same inputs."""
-    import validation.closed_loop as loop
-    from uvms_mj.plant import Plant
-
-    clock, calls, step = [0.0], [], Plant.step
-
-    def logged(self, u, duration):
-        calls.append((round(self.t, 6), np.array(u, float)))
-        return step(self, u, duration)
-
-    monkeypatch.setattr(Plant, "step", logged)
-    monkeypatch.setattr(loop.time, "perf_counter", lambda: clock[0])
-    monkeypatch.setattr(loop.time, "sleep", lambda seconds: None)
+    clock, calls = _fake_clock(monkeypatch)
     ctl = _Planner(clock, slow={2}, split=split, slow_by=0.23, fast_by=0.03)
     sc = get("wall-headon").with_overrides({"duration": "0.6", "faults": "none", "current.velocity": "0,0,0"})
     s = run(sc, controller=ctl, mismatch=NONE, latency="measured")
