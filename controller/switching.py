@@ -495,7 +495,7 @@ class SwitchingNMPC:
             hp, up, dt = guess
             u, fallback = up[0], Fallback.SHIFTED_PLAN if previous is not None else Fallback.GUESS
             self._plan = ModeIISolution(sol.status, hp, up, dt, sol.solve_time, iters, np.nan, sol.w)
-        if self._helper is not None:  # Mode III's entry from the state this plan reaches the plane in
+        if self._helper is not None and self.settings.mode3_entry_helper:  # Mode III where this plan meets the plane
             self._helper.submit(ContactEntry(self.contact, self.ocp3(self.contact).settings.horizon, hp[-1].copy(),
                                              np.clip(up[-1], self.lo, self.hi), self.current.copy(),
                                              self.lo.copy(), self.hi.copy()))

@@ -91,8 +91,11 @@ def test_the_helpers_deploy_is_the_solve_in_this_process_and_starts_mode_two_at_
 
         ctl.mode, ctl.contact, ctl.current, ctl._t = Mode.II, wall, current, 0.3
         ctl._helper._answers[DeployEntry] = (request, answer)
+        sent, submit = [], ctl._helper.submit
+        ctl._helper.submit = lambda entry: sent.append(type(entry)) or submit(entry)
         out = ctl._step_mode2(h)
         assert out.status.usable
+        assert ContactEntry not in sent  # Mode III's entry is not asked for without mode3_entry_helper
         start = (np.vstack([h, answer.h[1:]]), answer.u, answer.dt)
         cold = ocp.solve(h, start, current)  # the same problem (its parameters come from the start) without duals
         assert cold.status.usable
