@@ -17,6 +17,17 @@ from validation.scenarios import wall_approach
 WAIT = 120.0  # s: how long the test waits for the helper's answer before calling it lost (not a timing check)
 
 
+def _answered(ctl, request):
+    """Submit `request` to the controller's helper and wait (up to WAIT) for its answer's solution."""
+    ctl._helper.submit(request)
+    answer, t0 = None, time.monotonic()
+    while answer is None and time.monotonic() - t0 < WAIT:
+        time.sleep(0.02)
+        answer = ctl._helper.take(type(request), request.plane, request.horizon)
+    assert answer is not None, "the helper never answered"
+    return answer[1]
+
+
 def test_the_helpers_entry_is_the_solve_in_this_process_and_starts_mode_three_at_it(params, scene) -> None:
     """Every thruster dead, the hull 0.15 m from the wall closing at 0.2 m/s, the tip put on the wall
     by Wall_InvKin. Oracle 1: the same Mode III problem solved in this process from Algorithm 2's
@@ -35,13 +46,7 @@ def test_the_helpers_entry_is_the_solve_in_this_process_and_starts_mode_three_at
     request = ContactEntry(wall, ocp.settings.horizon, on, np.zeros(params.n_inputs), current, ctl.lo, ctl.hi)
     ctl.start_entry_helper()
     try:
-        ctl._helper.submit(request)
-        answer, t0 = None, time.monotonic()
-        while answer is None and time.monotonic() - t0 < WAIT:
-            time.sleep(0.02)
-            answer = ctl._helper.take(ContactEntry, wall, ocp.settings.horizon)
-        assert answer is not None, "the helper never answered"
-        answer = answer[1]
+        answer = _answered(ctl, request)
         held = np.zeros((ocp.settings.horizon, params.n_inputs))
         here = ocp.solve(on, ocp.contact_guess(on, held, None, current), current)
         assert here.status.usable
@@ -78,13 +83,7 @@ def test_the_helpers_deploy_is_the_solve_in_this_process_and_starts_mode_two_at_
     request = DeployEntry(wall, N, h, 0.3, current, ctl.lo, ctl.hi)
     ctl.start_entry_helper()
     try:
-        ctl._helper.submit(request)
-        answer, t0 = None, time.monotonic()
-        while answer is None and time.monotonic() - t0 < WAIT:
-            time.sleep(0.02)
-            answer = ctl._helper.take(DeployEntry, wall, N)
-        assert answer is not None, "the helper never answered"
-        answer = answer[1]
+        answer = _answered(ctl, request)
         here = ocp.solve(h, ocp.deploy_guess(h, N, current), current)
         assert here.status.usable
         np.testing.assert_allclose(answer.w, here.w, rtol=0.0, atol=1e-9)
