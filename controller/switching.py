@@ -96,6 +96,11 @@ class SwitchingSettings:
     # s: with plan_for_latency, plan for at least this delay when the task tells less (a measured delay,
     # which a task cannot tell in advance, is told as 0)
     assumed_latency: float = 0.0
+    # when the controller plans for a longer delay than the task tells in a loop on the wall clock (a
+    # measured delay with `assumed_latency`), a step that computes faster returns only once that delay
+    # has run from its call, so that its input acts when its plan assumed (a fixed-latency release); a
+    # slower one returns at once
+    release_at_latency: bool = True
     # the controller's model with the joints' viscous friction of the parameter file (ModelOptions.
     # joint_damping; the paper's model has none): strict 50 ms 109/144 vs 82/144, hull contacts 18
     # vs 39 (experiments/model_joint_damping)
@@ -609,6 +614,7 @@ class SwitchingController:
             settings = replace(s, mode2=replace(m2, dt_nominal=max(m2.dt_nominal, self.latency),
                                                 dt_bounds=(m2.dt_bounds[0] * scale, m2.dt_bounds[1] * scale)))
         self._started = False
+        self._release = self.settings.release_at_latency and task.wall_clock and self.latency > float(task.latency)
         if self.nmpc is not None:
             self.nmpc.close()
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
@@ -623,6 +629,7 @@ class SwitchingController:
     def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, StepInfo]:
         if self.nmpc is None or self._task is None:
             raise ValueError("step before reset; allowed: reset(task) first")
+        called = time.perf_counter()
         failed = self._task.failed_thrusters(t)
         if failed != self._failed:
             self.nmpc.set_failed_thrusters(failed)
@@ -640,6 +647,8 @@ class SwitchingController:
             u, info = self.nmpc.step(h, t, ahead)
         else:
             u, info = self.nmpc.step(h, t)
+        if self._release and self._started:
+            time.sleep(max(0.0, self.latency - (time.perf_counter() - called)))
         self._started = True
         self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
         return u, replace(info, water=known.copy())
