@@ -384,6 +384,51 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene, 
     assert "\n" not in str(err.value)
 
 
+@pytest.mark.parametrize("told, wall_clock, slow, waits", [
+    (0.0, True, 0.0, 0.05), (0.0, True, 0.08, 0.0), (0.05, True, 0.0, 0.0), (0.0, False, 0.0, 0.0)],
+    ids=["measured delay, fast step", "measured delay, slow step", "told delay", "plant waits"])
+def test_release_at_latency_waits_only_where_the_loop_does_not(params, scene, monkeypatch, told, wall_clock, slow,
+                                                               waits) -> None:
+    """`release_at_latency` with 0.05 s assumed: on a fake clock that only the step's own computation
+    (`slow` seconds, added to Mode I's step) and its waits advance, the second step of a loop on the
+    wall clock that tells no delay (a measured one) returns 0.05 s after its call, waiting what its
+    computation left; a slower step returns at once; a loop that keeps a told delay itself, or a
+    plant that waits, is never waited for; the first step (acting at once) never waits."""
+    import controller.switching as switching
+    from controller.protocol import Task
+
+    clock, slept = [0.0], []
+
+    class FakeTime:
+        @staticmethod
+        def perf_counter() -> float:
+            return clock[0]
+
+        @staticmethod
+        def sleep(seconds: float) -> None:
+            slept.append(seconds)
+            clock[0] += seconds
+
+    monkeypatch.setattr(switching, "time", FakeTime)
+    h, ref = initial_state(params, wall_approach(1.0, 0.3))
+    task = Task("release", params, scene, h, lambda t: ref, latency=told, wall_clock=wall_clock)
+    ctl = switching.SwitchingController(SwitchingSettings(assumed_latency=0.05))
+    ctl.reset(task)
+    step1 = ctl.nmpc._step_mode1
+
+    def computing(*args, **kwargs):
+        clock[0] += slow
+        return step1(*args, **kwargs)
+
+    ctl.nmpc._step_mode1 = computing
+    ctl.step(h, 0.0)
+    assert sum(slept) == 0.0
+    start = clock[0]
+    assert ctl.step(h, 0.1)[1].mode is Mode.I
+    assert sum(slept) == pytest.approx(waits, abs=1e-12)
+    assert clock[0] - start == pytest.approx(max(slow, waits), abs=1e-12)
+
+
 def test_a_failed_solve_returns_and_reports_the_shifted_plan(params, scene) -> None:
     """Mode I plans on an avoidable approach; its next solve is made to fail: the step's input is
     the previous plan's second input, and the plan it reports (what the strict real-time loop
