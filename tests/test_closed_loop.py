@@ -566,8 +566,7 @@ def test_a_controller_of_ones_own_runs_in_run_and_campaign(tmp_path) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("preset", ["switching", "mode1-only", "braking", "switching-paper", "switching-rti",
-                                    "switching-measured"])
+@pytest.mark.parametrize("preset", ["switching", "mode1-only", "braking", "switching-paper", "switching-rti"])
 def test_every_preset_steps_on_every_scenario(preset, tmp_path) -> None:
     """Each kept preset runs 0.3 s of every scenario (so that none can rot unseen): it steps, its
     inputs are finite (the plant would raise on a non-finite one), and the summary has a verdict."""

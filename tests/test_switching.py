@@ -349,9 +349,10 @@ def test_every_solve_is_reported_to_the_hook(params, scene) -> None:
     assert "certificate" in kinds and kinds[-1] == "mode2"
 
 
-@pytest.mark.parametrize("told, assumed", [(0.05, 0.0), (0.0, 0.05)])
-def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene, told, assumed) -> None:
-    """Task latency 0.05 s (or none told and 0.05 s assumed: `assumed_latency`), 0.3 m/s towards
+@pytest.mark.parametrize("told, wall_clock", [(0.05, False), (0.0, True)])
+def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene, told, wall_clock) -> None:
+    """Task latency 0.05 s (or none told in a loop on the wall clock: `assumed_latency`, 0.05 s, which
+    a loop where the plant waits never gets, nor one that tells its own), 0.3 m/s towards
     the wall 1 m ahead with a 0.1 m/s current (Mode I): the first step plans from the measured
     state (its input acts at once); the second from the state 0.05 s later under the first step's
     input held, which is what acts during the delay. Oracle: the model's RK4 in 200 substeps of
@@ -367,9 +368,15 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene, 
     h, ref = initial_state(params, wall_approach(1.0, 0.3))
     from uvms.scene import Current
     water = scene.with_current(Current.constant((0.1, 0.0, 0.0)))
-    task = Task("latency", params, water, h, lambda t: ref, latency=told)
-    ctl = SwitchingController(SwitchingSettings(assumed_latency=assumed))
+    task = Task("latency", params, water, h, lambda t: ref, latency=told, wall_clock=wall_clock)
+    for other, planned in ((replace(task, latency=0.0, wall_clock=False), 0.0), (replace(task, latency=0.02), 0.02)):
+        if wall_clock:  # the delay planned for: none where the plant waits, the told one where told
+            ctl = SwitchingController(SwitchingSettings(mode2_entry_helper=False))
+            ctl.reset(other)
+            assert ctl.latency == planned
+    ctl = SwitchingController(SwitchingSettings(mode2_entry_helper=False, release_at_latency=False))
     ctl.reset(task)
+    assert ctl.latency == 0.05
     assert ctl.nmpc.settings.mode2.dt_bounds == (0.05, 0.1) and ctl.nmpc.settings.mode2.dt_nominal == 0.05
     u0, info0 = ctl.step(h, 0.0)
     assert info0.mode is Mode.I and np.array_equal(info0.h_pred[0], h)
@@ -380,7 +387,7 @@ def test_with_a_latency_each_step_plans_from_the_predicted_state(params, scene, 
     np.testing.assert_allclose(info1.h_pred[0], fine, atol=1e-6)
     assert np.max(np.abs(fine - h1)) > 1e-3  # the prediction is not the measured state
     with pytest.raises(ValueError, match="allowed") as err:
-        SwitchingController(SwitchingSettings(assumed_latency=assumed)).reset(replace(task, latency=0.15))
+        SwitchingController(SwitchingSettings(assumed_latency=0.15)).reset(replace(task, latency=0.0, wall_clock=True))
     assert "\n" not in str(err.value)
 
 
