@@ -109,12 +109,12 @@ def test_the_helpers_deploy_is_the_solve_in_this_process_and_starts_mode_two_at_
 
 
 @pytest.mark.parametrize(("latency", "wall_clock", "started"), [(0.05, True, True), (0.05, False, False),
-                                                                  (0.0, True, False)])
+                                                                  (0.0, True, True), (0.0, False, False)])
 def test_the_helper_runs_only_under_a_latency_on_the_wall_clock(params, scene, latency, wall_clock, started) -> None:
     """The helper is not deterministic (which answer comes back in time depends on the machine), so
     the controller starts it only where the loop's timing already decides what is late: a latency
-    in a loop paced at the wall clock. A fixed delay the plant waits out, or no delay, stays
-    deterministic."""
+    in a loop paced at the wall clock, told (strict) or not (measured: the assumed one). A fixed
+    delay the plant waits out, or no delay, stays deterministic."""
     from controller.protocol import Task
     from controller.switching import SwitchingController
 
