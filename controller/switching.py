@@ -180,8 +180,10 @@ class SwitchingNMPC:
                     self.ocp2(plane).solver(n, warm=settings.mode2.warm_start)
                 self.ocp2(plane).prepare_guesses(settings.mode2.horizon)
                 self.ocp3(plane)
-        # the rollouts' compiled RK4 loaded now, not in the first step that predicts (30 ms there)
+        # the rollouts' compiled RK4 loaded now, not in the first step that predicts (30 ms there), nor
+        # in Mode III's first (Algorithm 2's guess: 28 ms)
         model.held_steps(np.zeros(model.n_states), np.zeros(model.n_inputs), settings.mode1.dt, 4)
+        model.step(np.zeros(model.n_states), np.zeros(model.n_inputs), settings.mode3.dt)
         self.mode = Mode.I
         self.contact: int | None = None
         self._plan: OCPSolution | ModeIISolution | ModeIIISolution | None = None
@@ -194,6 +196,15 @@ class SwitchingNMPC:
         self._deploy: tuple[ModeIIOCP, np.ndarray, tuple] | None = None  # the deadline's deploy rollout this step
         self._helper: EntryHelper | None = None  # mode entries solved ahead (start_entry_helper)
         self._t = 0.0  # s: the time of the state this step plans from
+
+    def prepare_every_problem(self) -> None:
+        """Build now the problems a step would otherwise build when it first needs them (Mode III's
+        over either horizon, a thruster dying between, and their twins for a hull pitched past
+        `mode3.regular_pitch`: about 0.1 s each), for loops where a step pays for what it builds."""
+        s = self.settings.mode3
+        for plane in range(len(self.planes)):
+            for horizon in {s.horizon, s.thrust_horizon or s.horizon}:
+                self.ocp3(plane, horizon).prepare_twins()
 
     def start_entry_helper(self) -> None:
         """Fork the process that solves mode entries ahead (controller.entries_ahead)."""
@@ -241,12 +252,13 @@ class SwitchingNMPC:
             self._mode2[plane] = ocp
         return self._mode2[plane]
 
-    def ocp3(self, plane: int) -> ModeIIIOCP:
-        """Mode III's problem against `plane`: over `mode3.thrust_horizon` intervals while some
-        thruster lives (if set), else over `mode3.horizon`."""
+    def ocp3(self, plane: int, horizon: int | None = None) -> ModeIIIOCP:
+        """Mode III's problem against `plane` over `horizon` intervals; None: over
+        `mode3.thrust_horizon` while some thruster lives (if set), else over `mode3.horizon`."""
         s, nt = self.settings.mode3, self.model.params.n_thrusters
         live = bool(np.any(self.lo[:nt]) or np.any(self.hi[:nt]))
-        horizon = s.thrust_horizon if live and s.thrust_horizon is not None else s.horizon
+        if horizon is None:
+            horizon = s.thrust_horizon if live and s.thrust_horizon is not None else s.horizon
         if (plane, horizon) not in self._mode3:
             ocp = self._hooked("mode3", ModeIIIOCP(self.model, self.planes, plane, replace(s, horizon=horizon)))
             ocp.limit_inputs(self.lo, self.hi)
@@ -620,6 +632,8 @@ class SwitchingController:
         if self.nmpc is not None:
             self.nmpc.close()
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
+        if self.latency > 0.0 and self.settings.switching:
+            self.nmpc.prepare_every_problem()
         if (self.settings.mode3_entry_helper or self.settings.mode2_entry_helper) and self.latency > 0.0 \
                 and task.wall_clock:
             self.nmpc.start_entry_helper()

@@ -233,6 +233,28 @@ def test_mode_three_plans_over_its_thrust_horizon_only_while_a_thruster_lives(pa
             assert np.all(u[:params.n_thrusters] == 0.0)
 
 
+@pytest.mark.parametrize("latency", [0.0, 0.05])
+def test_under_a_latency_mode_threes_problems_are_built_before_the_first_step(params, scene, latency) -> None:
+    """A step under a latency pays for what it builds: Mode III's problem with its angles regular at
+    90 deg of pitch (`regular_pitch`), built when a hull first pitched past 75 deg, cost 85-95 ms in
+    the middle of arm-deployed runs. Reset under a latency, the controller holds Mode III's problem
+    against every plane over both of its horizons (3 intervals while a thruster lives, 5 once every
+    one is dead) with both pitched twins, before its first step; without one, only what its first
+    Mode III step would use (built at construction, as before)."""
+    from controller.protocol import Task
+    from controller.switching import SwitchingController
+
+    h, ref = initial_state(params, wall_approach(1.0, 0.3))
+    ctl = SwitchingController(SwitchingSettings(mode2_entry_helper=False))
+    ctl.reset(Task("prepared", params, scene, h, lambda t: ref, latency=latency))
+    planes = range(len(scene.planes))
+    built = {key: set(ocp._twins) for key, ocp in ctl.nmpc._mode3.items()}
+    if latency:
+        assert built == {(p, n): {1.0, -1.0} for p in planes for n in (3, 5)}
+    else:
+        assert built == {(p, 3): set() for p in planes}
+
+
 @pytest.mark.slow
 def test_the_deploy_deadline_skips_a_question_whose_answer_changes_nothing(params, scene) -> None:
     """On an unavoidable oblique approach (closest body 1 cm off the wall at 0.86 m/s, 30 deg: 1.1
