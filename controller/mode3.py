@@ -98,6 +98,11 @@ class ModeIIISettings:
     acceptable_iter: int = 3  # IPOPT stops after this many iterations at its acceptable level (0: never)
     ipopt_options: dict = field(default_factory=dict)
 
+    @property
+    def horizons(self) -> set[int]:
+        """Every horizon Mode III may plan over: with some thruster alive and with every one dead."""
+        return {self.horizon, self.thrust_horizon or self.horizon}
+
 
 @dataclass(frozen=True)
 class ModeIIISolution:

@@ -201,9 +201,8 @@ class SwitchingNMPC:
         """Build now the problems a step would otherwise build when it first needs them (Mode III's
         over either horizon, a thruster dying between, and their twins for a hull pitched past
         `mode3.regular_pitch`: about 0.1 s each), for loops where a step pays for what it builds."""
-        s = self.settings.mode3
         for plane in range(len(self.planes)):
-            for horizon in {s.horizon, s.thrust_horizon or s.horizon}:
+            for horizon in self.settings.mode3.horizons:
                 self.ocp3(plane, horizon).prepare_twins()
 
     def start_entry_helper(self) -> None:

@@ -133,7 +133,7 @@ def build_piece(piece: Piece) -> str:
     elif piece.kind == "mode2":
         ModeIIOCP(model, scene.planes, piece.plane, s.mode2).prepare_guesses(s.mode2.horizon)
     else:  # both of its horizons: with every thruster dead and with some alive (SwitchingNMPC.ocp3)
-        for horizon in {s.mode3.horizon, s.mode3.thrust_horizon or s.mode3.horizon}:
+        for horizon in s.mode3.horizons:
             ModeIIIOCP(model, scene.planes, piece.plane, replace(s.mode3, horizon=horizon)).prepare_twins()
     return piece.label()
 
