@@ -1,0 +1,12 @@
+#!/bin/sh
+# experiments/first_solve (README): run.sh OUT, at the declaring commit. A fixed delay is
+# deterministic (the plant waits for each step), so the two arms may run side by side.
+set -e
+UVMS=/work/main/.venv/bin/uvms
+out=$1
+arm() {  # name [--ctl ...]
+  n=$1; shift
+  $UVMS campaign --scenarios wall-headon,wall-oblique,arm-deployed --controllers switching \
+    --seeds 24 --first-seed 0 --workers 1 --timeout 900 --latency 0.05 "$@" --out $out/$n
+}
+arm first30 --ctl first_iterations=30 & arm default; wait
