@@ -41,7 +41,6 @@ from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
 from controller.model import ModelOptions, UVMSModel, water
 from controller.protocol import StepInfo, Task
 from controller.rollouts import BrakingPolicy, JointHold, simulate
-from controller.sqp import SQPSettings
 from controller.transcription import tip_gap
 from uvms.scene import Plane
 
@@ -115,10 +114,6 @@ class SwitchingSettings:
     # that answer (not the deploy guess, cold): strict 50 ms 72/72 vs 67/72, Mode II late 1-4 % vs
     # 19-26 % (experiments/mode2_entry_helper)
     mode2_entry_helper: bool = True
-    # under a latency the first step, whose input acts at once and which nothing waits for, solves
-    # Mode I's OCP by up to this many SQP iterations with a line search (a real-time iteration
-    # scheme's initialization), not `mode1.sqp.max_iter`; 0: as every other step
-    first_iterations: int = 0
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""
@@ -195,7 +190,6 @@ class SwitchingNMPC:
         self._recomputed = np.zeros((0, model.n_states))  # the Mode III plan's states from its inputs
         self._horizon2 = settings.mode2.horizon
         self.last_u = np.zeros(model.n_inputs)
-        self.first_sqp: SQPSettings | None = None  # Mode I's SQP for this step only (None: its settings')
         self._reported_mode = Mode.I
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
@@ -355,7 +349,7 @@ class SwitchingNMPC:
 
         def solve_now() -> tuple[np.ndarray, np.ndarray] | None:
             """Mode I's solve, with its plan re-simulated (the certificate's third screen)."""
-            sol = fresh["sol"] = ocp.solve(h, ref, self.current, previous=previous, guess=guess, sqp=self.first_sqp)
+            sol = fresh["sol"] = ocp.solve(h, ref, self.current, previous=previous, guess=guess)
             if not sol.status.usable:
                 return None
             fresh["h"] = self._resimulate(h, sol.u, s.dt)
@@ -395,8 +389,7 @@ class SwitchingNMPC:
         if cert is not None and cert.method is Method.MINIMUM_VIOLATION and cert.solution is not None:
             guess = ocp.guess_from_rollout(cert.solution.h, cert.solution.u)  # a better start than the fresh one
             fresh.clear()
-        sol = fresh["sol"] if "sol" in fresh else ocp.solve(h, ref, self.current, previous=previous, guess=guess,
-                                                             sqp=self.first_sqp)
+        sol = fresh["sol"] if "sol" in fresh else ocp.solve(h, ref, self.current, previous=previous, guess=guess)
         self._ocp_time = sol.solve_time
         if sol.status.usable:
             self._plan = sol
@@ -668,11 +661,7 @@ class SwitchingController:
             ahead = self.nmpc.predict(h, self.nmpc.last_u, self.latency), t + self.latency
             u, info = self.nmpc.step(h, t, ahead)
         else:
-            s = self.settings
-            if s.first_iterations > 0 and self.latency > 0.0:
-                self.nmpc.first_sqp = replace(s.mode1.sqp, max_iter=s.first_iterations, line_search=True)
             u, info = self.nmpc.step(h, t)
-            self.nmpc.first_sqp = None
         if self._release and self._started:
             time.sleep(max(0.0, self.latency - (time.perf_counter() - called)))
         self._started = True
