@@ -9,7 +9,11 @@ again) and solves the entries it is sent, as the entry step itself would:
 - `DeployEntry`: Mode II from its deploy guess at the state a Mode I plan reaches at its next node
   (submitted by each Mode I step whose braking rollout fails), for a switch in the next step;
 - `ContactEntry`: Mode III from Algorithm 2's guess at the state a Mode II plan predicts at
-  contact (its last node), with the input it ends with (submitted by each Mode II step).
+  contact (its last node), with the input it ends with (submitted by each Mode II step);
+- `ContactStep`: Mode III's next step from the state its plan reaches at the next node, warm from
+  that plan shifted and its multipliers (submitted by each Mode III step), for the next step's
+  solve from the measured state to start from: on 266 recorded Mode III problems 7 IPOPT iterations
+  at the median and 20 runs of 20 or more, against 11 and 61 from the shifted plan.
 
 Nothing waits: `submit` sends at once and the helper, when free, solves the newest request it
 has (older ones of the same kind dropped); `take` returns the newest answer of a kind that has
@@ -96,7 +100,32 @@ class DeployEntry:
         return sol if sol.status.usable else None
 
 
-Entry = ContactEntry | DeployEntry
+@dataclass(frozen=True)
+class ContactStep:
+    """Mode III's next step to solve ahead: the contact plane, the horizon, which of the controller's
+    Mode III plans it continues (a count), that plan's recomputed states (N+1, ns) and solution, the
+    model's water input and the input bounds of the moment."""
+
+    plane: int
+    horizon: int
+    plan_index: int
+    h: np.ndarray  # (N+1, ns)
+    plan: ModeIIISolution
+    current: np.ndarray  # (WATER,)
+    lo: np.ndarray  # (nu,)
+    hi: np.ndarray  # (nu,)
+
+    def solve(self, nmpc: Any) -> ModeIIISolution | None:
+        ocp: ModeIIIOCP = nmpc.ocp3(self.plane, self.horizon)
+        ocp.limit_inputs(self.lo, self.hi)
+        p = self.plan
+        guess = ocp.pack(np.vstack([self.h[1:], self.h[-1:]]), np.vstack([p.u[1:], p.u[-1:]]),
+                         np.vstack([p.force[1:], p.force[-1:]]))
+        sol = ocp.solve(self.h[1], guess, self.current, ocp.shifted_duals(p))
+        return sol if sol.status.usable else None
+
+
+Entry = ContactEntry | DeployEntry | ContactStep
 
 
 def _serve(nmpc: Any, conn: Connection) -> None:

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from controller import impact
-from controller.entries_ahead import ContactEntry, DeployEntry, EntryHelper
+from controller.entries_ahead import ContactEntry, ContactStep, DeployEntry, EntryHelper
 from controller.estimator import CurrentObserver, ObserverSettings
 from controller.feasibility import Certificate, CertificateSettings, FeasibilityTest, Method, Verdict
 from controller.mode1 import ModeIOCP, ModeISettings, OCPSolution, SolverStatus
@@ -114,6 +114,9 @@ class SwitchingSettings:
     # that answer (not the deploy guess, cold): strict 50 ms 72/72 vs 67/72, Mode II late 1-4 % vs
     # 19-26 % (experiments/mode2_entry_helper)
     mode2_entry_helper: bool = True
+    # ... and each Mode III step's successor from its plan's next node, warm from that plan, and the
+    # next Mode III step starts from that answer (not the shifted plan) when it continues the same plan
+    mode3_step_helper: bool = False
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""
@@ -190,6 +193,7 @@ class SwitchingNMPC:
         self._recomputed = np.zeros((0, model.n_states))  # the Mode III plan's states from its inputs
         self._horizon2 = settings.mode2.horizon
         self.last_u = np.zeros(model.n_inputs)
+        self._mode3_plans = 0  # Mode III plans made so far (which one a ContactStep answer continues)
         self._reported_mode = Mode.I
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
@@ -538,7 +542,15 @@ class SwitchingNMPC:
         if entry and self._helper is not None and self.settings.mode3_entry_helper:
             answer = self._helper.take(ContactEntry, self.contact, s.horizon)
             ahead = None if answer is None else answer[1]
-        if previous is not None:  # the Final Algorithm: the plan's recomputed states, shifted, from h
+        step_ahead = None
+        if previous is not None and self._helper is not None and self.settings.mode3_step_helper:
+            answer = self._helper.take(ContactStep, self.contact, s.horizon)
+            if answer is not None and answer[0].plan_index == self._mode3_plans:
+                step_ahead = answer[1]
+        if step_ahead is not None:  # the previous plan's successor solved ahead, from h measured now
+            guess = ocp.pack(np.vstack([h, step_ahead.h[1:]]), step_ahead.u, step_ahead.force)
+            duals = (step_ahead.lam_g, step_ahead.lam_x)
+        elif previous is not None:  # the Final Algorithm: the plan's recomputed states, shifted, from h
             us = np.vstack([previous.u[1:], previous.u[-1:]])
             Fs = np.vstack([previous.force[1:], previous.force[-1:]])
             guess = ocp.pack(np.vstack([h, self._recomputed[2:], self._recomputed[-1:]]), us, Fs)
@@ -552,6 +564,10 @@ class SwitchingNMPC:
         self._ocp_time = sol.solve_time
         if sol.status.usable:
             self._plan, self._recomputed = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp)
+            self._mode3_plans += 1
+            if self._helper is not None and self.settings.mode3_step_helper:
+                self._helper.submit(ContactStep(self.contact, s.horizon, self._mode3_plans, self._recomputed.copy(),
+                                                sol, self.current.copy(), self.lo.copy(), self.hi.copy()))
             return _ModeStep(sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon,
                              self._recomputed, sol.u, sol.force)
         self._plan = None
@@ -633,8 +649,8 @@ class SwitchingController:
         self.nmpc = SwitchingNMPC(model, task.scene.planes, task.reference, settings, self.on_solve)
         if self.latency > 0.0 and self.settings.switching:
             self.nmpc.prepare_every_problem()
-        if (self.settings.mode3_entry_helper or self.settings.mode2_entry_helper) and self.latency > 0.0 \
-                and task.wall_clock:
+        helpers = (self.settings.mode3_entry_helper, self.settings.mode2_entry_helper, self.settings.mode3_step_helper)
+        if any(helpers) and self.latency > 0.0 and task.wall_clock:
             self.nmpc.start_entry_helper()
         self.observer = CurrentObserver(model, self.settings.observer) if self.settings.observe_current else None
         water_of = task.scene.water
