@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from controller.entries_ahead import ContactEntry, DeployEntry
+from controller.entries_ahead import ContactEntry, ContactStep, DeployEntry
 from controller.model import UVMSModel, water
 from controller.switching import Mode, SwitchingNMPC, SwitchingSettings
 from validation.closed_loop import initial_state
@@ -104,6 +104,66 @@ def test_the_helpers_deploy_is_the_solve_in_this_process_and_starts_mode_two_at_
         ctl.mode, ctl._plan, ctl._horizon2, ctl._t = Mode.II, None, N, 0.3 + 0.6 * ctl.settings.mode1.dt
         ctl._helper._answers[DeployEntry] = (request, answer)
         assert ctl._step_mode2(h).iterations == here.iterations
+    finally:
+        ctl.close()
+
+
+def test_the_helpers_next_mode_three_step_is_the_solve_in_this_process_and_starts_that_step(params, scene) -> None:
+    """The entry of the test above, Mode III's first step taken in the controller with
+    `mode3_step_helper`, which sends its plan to the helper. Oracle 1: Mode III's problem solved in
+    this process from the plan's next node (its recomputed states), warm from the plan shifted and its
+    multipliers, which is also the solve the next step would make from the shifted plan at that
+    state; the helper's answer must be that plan to 1e-9 (same code, same data: only the transport
+    differs). Oracle 2: the next step, measured at that node and started from the answer, returns the
+    answer's plan to 1e-3 of its largest input (IPOPT's warm start stops at its acceptable level) in
+    fewer iterations than the solve from the shifted plan took. Oracle 3: an answer that continues an
+    older plan is not taken: that step is the solve from its own shifted plan, to 1e-9."""
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, wall_approach(0.15, 0.2))
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(mode3_step_helper=True))
+    ctl.set_failed_thrusters(tuple(range(params.n_thrusters)))
+    ocp, current = ctl.ocp3(wall), water(np.zeros(3))
+    N = ocp.settings.horizon
+    on = h.copy()
+    on[6:6 + params.n_joints] = ocp.onto_plane(h)
+
+    def from_shifted(plan, states):
+        """The solve a Mode III step at states[1] makes from the shifted plan (the Final Algorithm)."""
+        guess = ocp.pack(np.vstack([states[1:], states[-1:]]), np.vstack([plan.u[1:], plan.u[-1:]]),
+                         np.vstack([plan.force[1:], plan.force[-1:]]))
+        return ocp.solve(states[1], guess, current, ocp.shifted_duals(plan))
+
+    ctl.start_entry_helper()
+    try:
+        ctl.mode, ctl._reported_mode, ctl.contact, ctl.current = Mode.III, Mode.II, wall, current
+        _, first = ctl.step(on, 0.0)
+        assert first.mode is Mode.III and first.status.usable
+        plan, states = ctl._plan, ctl._recomputed.copy()
+        answer, t0 = None, time.monotonic()
+        while answer is None and time.monotonic() - t0 < WAIT:
+            time.sleep(0.02)
+            answer = ctl._helper.take(ContactStep, wall, N)
+        assert answer is not None, "the helper never answered"
+        assert answer[0].plan_index == ctl._mode3_plans
+        here = from_shifted(plan, states)
+        assert here.status.usable
+        np.testing.assert_allclose(answer[1].w, here.w, rtol=0.0, atol=1e-9)
+
+        ctl._helper._answers[ContactStep] = answer
+        _, info = ctl.step(states[1], ocp.settings.dt)
+        assert info.mode is Mode.III and info.status.usable
+        scale = float(np.max(np.abs(answer[1].u)))
+        np.testing.assert_allclose(info.u_pred, answer[1].u, rtol=0.0, atol=1e-3 * scale)
+        assert info.iterations < here.iterations
+
+        ctl.close()  # a helper that hands back only the stale answer
+        plan, states = ctl._plan, ctl._recomputed.copy()
+        ctl._helper = type("Stale", (), {"take": lambda self, *a: answer, "submit": lambda self, r: None,
+                                         "close": lambda self: None})()
+        expected = from_shifted(plan, states)
+        ctl.step(states[1], 2 * ocp.settings.dt)
+        np.testing.assert_allclose(ctl._plan.w, expected.w, rtol=0.0, atol=1e-9)
     finally:
         ctl.close()
 
