@@ -1,5 +1,6 @@
 """Paired per run: late Mode III steps after its first (python late_runs.py A B), the runs where A
-has more / B has more / ties, and the exact two-sided sign test; then the steps' totals."""
+has more / B has more / ties, and the exact two-sided sign test; then the steps' totals. Late: an
+overrun in strict real time, a delay over 50 ms under a measured one."""
 
 import glob
 import json
@@ -18,7 +19,7 @@ def late_later_mode3(root: str) -> dict[str, tuple[int, int]]:
         for s in json.load(open(path))["steps"]:
             if s["mode"] == "III" and s["delay"] > 0 and prev == "III":
                 steps += 1
-                late += s["overrun"]
+                late += bool(s["overrun"] or s["delay"] > 0.05 + 1e-9)
             prev = s["mode"]
         p = Path(path).parts
         out[f"{p[-4]}/{p[-2]}"] = (late, steps)
