@@ -59,6 +59,7 @@ OPTIONS: dict[str, dict] = {
     "adaptive barrier (probing oracle)": {"mu_strategy": "adaptive", "mu_oracle": "probing"},
     "gentler Hessian perturbations": {"perturb_dec_fact": 0.1, "first_hessian_perturbation": 1e-2},
     "L-BFGS Hessian": {"hessian_approximation": "limited-memory"},
+    "SPRAL instead of MUMPS (in CasADi's wheel)": {"linear_solver": "spral"},
     "filter's infeasibility limit x1": {"theta_max_fact": 1.0},
     "filter's infeasibility limit x0.1": {"theta_max_fact": 0.1},
     "first acceptable iterate": {"acceptable_iter": 1},
