@@ -13,7 +13,7 @@ again) and solves the entries it is sent, as the entry step itself would:
 - `ContactStep`: Mode III's next step from the state its plan reaches at the next node, warm from
   that plan shifted and its multipliers (submitted by each Mode III step), for the next step's
   solve from the measured state to start from: on 266 recorded Mode III problems 7 IPOPT iterations
-  at the median and 20 runs of 20 or more, against 11 and 61 from the shifted plan.
+  at the median and 20 solves of 20 or more, against 11 and 61 from the shifted plan.
 
 Nothing waits: `submit` sends at once and the helper, when free, solves the newest request it
 has (older ones of the same kind dropped); `take` returns the newest answer of a kind that has
@@ -116,6 +116,8 @@ class ContactStep:
     hi: np.ndarray  # (nu,)
 
     def solve(self, nmpc: Any) -> ModeIIISolution | None:
+        """From the plan's next node, as a Mode III step there would start: the plan's recomputed
+        states, inputs and forces shifted by one interval (the last repeated) and its multipliers."""
         ocp: ModeIIIOCP = nmpc.ocp3(self.plane, self.horizon)
         ocp.limit_inputs(self.lo, self.hi)
         p = self.plan

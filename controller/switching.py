@@ -13,7 +13,10 @@ II afresh); back to Mode I once the hull moves away from the contact plane faste
 
 Before each solve the previous plan is shifted by one interval and its states recomputed from the
 measured state by the model's RK4 (the Final Algorithm); Mode III's nodes are put back on the plane
-by Algorithm 2's inverse kinematics. A solve whose status is not usable is not used: the fallback
+by Algorithm 2's inverse kinematics. Under a latency on the wall clock a helper process solves
+ahead what the next step will need (controller.entries_ahead: Mode II's deploy while Mode I's
+braking rollout fails, Mode III's next step from its plan's next node), and those steps start from
+its answers. A solve whose status is not usable is not used: the fallback
 (StepInfo.fallback) is the previous plan of the same mode shifted by one interval, else Mode I's
 maximum braking, Mode II's deploy guess, and for Mode III's first solve Mode II afresh (`redeploy`,
 not in the paper) or, without it, maximum braking with the arm held rigid. A failed Mode III solve
