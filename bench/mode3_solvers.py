@@ -31,6 +31,7 @@ import argparse
 import json
 import platform
 import sys
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict
 from pathlib import Path
@@ -39,7 +40,7 @@ import casadi as ca
 import numpy as np
 from tqdm import tqdm
 
-from controller.mode3 import ModeIIIOCP, ModeIIISettings
+from controller.mode3 import ModeIIIOCP, ModeIIISettings, ModeIIISolution
 from controller.model import ModelOptions, UVMSModel
 from uvms import load_params, load_scene
 from uvms.scene import Scene
@@ -131,6 +132,23 @@ def load_problems() -> tuple[dict[str, np.ndarray], np.ndarray, UVMSModel, Scene
     return data, np.isnan(data["lam_g"][:, 0]), UVMSModel(load_params(), scene.water, options), scene
 
 
+def replayed(data: dict[str, np.ndarray], cold: np.ndarray, model: UVMSModel, scene: Scene,
+             ipopt_options: dict | None = None) -> Iterator[tuple[int, ModeIIIOCP, ModeIIISolution]]:
+    """Each recorded problem solved as the controller posed it (its plane, horizon, input bounds, guess
+    and, when warm, multipliers), with `ipopt_options` on Mode III's own: (its index, the problem
+    object, the solution), one problem object per plane and horizon."""
+    ocps: dict[tuple[int, int], ModeIIIOCP] = {}
+    for i in range(len(cold)):
+        key = (int(data["contact"][i]), int(data["horizon"][i]))
+        if key not in ocps:
+            ocps[key] = ModeIIIOCP(model, scene.planes, key[0],
+                                   ModeIIISettings(horizon=key[1], ipopt_options=ipopt_options or {}))
+        ocp = ocps[key]
+        ocp.limit_inputs(data["lo"][i], data["hi"][i])
+        duals = None if cold[i] else (data["lam_g"][i], data["lam_x"][i])
+        yield i, ocp, ocp.solve(data["h0"][i], data["guess"][i], data["current"][i], duals)
+
+
 def recorded(data: dict[str, np.ndarray]) -> str:
     """The scenarios whose closed loops posed the recorded problems."""
     return str(data["families"]).replace(",", ", ") if "families" in data else ", ".join(FAMILIES)
@@ -149,18 +167,8 @@ def evaluate(prefixes: tuple[str, ...] = ("",), stem: str = "mode3_solvers") -> 
     results: dict[str, list[tuple]] = {}
     chosen = {k: v for k, v in OPTIONS.items() if k.startswith(prefixes)}
     for name, opts in tqdm(chosen.items(), desc="option sets", unit="set"):
-        ocps: dict[tuple[int, int], ModeIIIOCP] = {}
-        rows = []
-        for i in range(n):
-            key = (int(data["contact"][i]), int(data["horizon"][i]))
-            if key not in ocps:
-                ocps[key] = ModeIIIOCP(model, scene.planes, key[0], ModeIIISettings(horizon=key[1], ipopt_options=opts))
-            ocp = ocps[key]
-            ocp.limit_inputs(data["lo"][i], data["hi"][i])
-            duals = None if cold[i] else (data["lam_g"][i], data["lam_x"][i])
-            sol = ocp.solve(data["h0"][i], data["guess"][i], data["current"][i], duals)
-            rows.append((sol.status.usable, sol.iterations, sol.solve_time, sol.cost))
-        results[name] = rows
+        results[name] = [(sol.status.usable, sol.iterations, sol.solve_time, sol.cost)
+                         for _, _, sol in replayed(data, cold, model, scene, opts)]
     base = results[next(iter(chosen))]
     ref = np.array([b[3] for b in base])
     lines = ["# Mode III's IPOPT on recorded problems", "",
@@ -246,17 +254,9 @@ def breakdown() -> None:
     the rest (IPOPT's iteration with MUMPS, and CasADi's call around the solver), per
     interior-point iteration summed over the problems."""
     data, cold, model, scene = load_problems()
-    ocps: dict[tuple[int, int], ModeIIIOCP] = {}
     total, iterations, spent = 0.0, 0, dict.fromkeys(CALLBACKS, 0.0)
-    for i in tqdm(range(len(cold)), desc="problems", unit="problem"):
-        key = (int(data["contact"][i]), int(data["horizon"][i]))
-        if key not in ocps:
-            ocps[key] = ModeIIIOCP(model, scene.planes, key[0], ModeIIISettings(horizon=key[1]))
-        ocp = ocps[key]
-        ocp.limit_inputs(data["lo"][i], data["hi"][i])
-        duals = None if cold[i] else (data["lam_g"][i], data["lam_x"][i])
-        sol = ocp.solve(data["h0"][i], data["guess"][i], data["current"][i], duals)
-        stats = (ocp.solver if duals is None else ocp.warm_solver).stats()
+    for i, ocp, sol in tqdm(replayed(data, cold, model, scene), total=len(cold), desc="problems", unit="problem"):
+        stats = (ocp.solver if cold[i] else ocp.warm_solver).stats()
         total, iterations = total + sol.solve_time, iterations + sol.iterations
         for name in CALLBACKS:
             spent[name] += float(stats.get(f"t_wall_{name}", 0.0))

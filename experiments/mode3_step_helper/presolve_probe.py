@@ -8,24 +8,15 @@ import sys
 import numpy as np
 
 sys.path.insert(0, "bench")
-from mode3_solvers import load_problems
-
-from controller.mode3 import ModeIIIOCP, ModeIIISettings
+from mode3_solvers import load_problems, replayed
 
 data, cold, model, scene = load_problems()
-ocps: dict[tuple[int, int], ModeIIIOCP] = {}
 shifted, ahead_start, ahead_itself = [], [], []
 prev = None
-for i in range(len(cold)):
+for i, ocp, sol in replayed(data, cold, model, scene):
     key = (int(data["contact"][i]), int(data["horizon"][i]))
-    if key not in ocps:
-        ocps[key] = ModeIIIOCP(model, scene.planes, key[0], ModeIIISettings(horizon=key[1]))
-    ocp = ocps[key]
-    ocp.limit_inputs(data["lo"][i], data["hi"][i])
-    duals = None if cold[i] else (data["lam_g"][i], data["lam_x"][i])
     h0, current = data["h0"][i], data["current"][i]
-    sol = ocp.solve(h0, data["guess"][i], current, duals)
-    if duals is not None and prev is not None and prev[0] == key and prev[1].status.usable:
+    if not cold[i] and prev is not None and prev[0] == key and prev[1].status.usable:
         p = prev[1]
         node = p.h[1].copy()  # the plan's next node (its own states; the controller uses the recomputed ones)
         guess = ocp.pack(np.vstack([node, p.h[2:], p.h[-1:]]), np.vstack([p.u[1:], p.u[-1:]]),
