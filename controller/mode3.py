@@ -427,6 +427,23 @@ class ModeIIIOCP:
         return (np.concatenate([lg[:ns], lg[ns + nc:], lg[-nc:]]),
                 np.concatenate([lx[nz:], lx[-nz:-ns], lx[-ns:]]))
 
+    def held_over(self, sol: ModeIIISolution, horizon: int) -> ModeIIISolution:
+        """`sol`, a plan over this problem's horizon, held over `horizon` >= it intervals: its last
+        interval's inputs, forces and multipliers repeated, its last state repeated at the added nodes
+        (a start for a longer problem's warm solve, not a solution of it)."""
+        N, ns, nz, extra = self.settings.horizon, self.ns, self.nz, horizon - self.settings.horizon
+        if extra < 0:
+            raise ValueError(f"horizon {horizon} is shorter than the plan's {N}; allowed: at least {N}")
+        nc = (len(sol.lam_g) - ns) // N
+        h = np.vstack([sol.h, *[sol.h[-1:]] * extra])
+        u, force = np.vstack([sol.u, *[sol.u[-1:]] * extra]), np.vstack([sol.force, *[sol.force[-1:]] * extra])
+        w = np.concatenate([sol.w[:N * nz], *[sol.w[(N - 1) * nz:N * nz]] * extra, sol.w[N * nz:]])
+        for k in range(N, horizon):  # the repeated blocks start from the plan's last state
+            w[k * nz:k * nz + ns] = sol.h[-1]
+        lam_g = np.concatenate([sol.lam_g, *[sol.lam_g[-nc:]] * extra])
+        lam_x = np.concatenate([sol.lam_x[:N * nz], *[sol.lam_x[(N - 1) * nz:N * nz]] * extra, sol.lam_x[N * nz:]])
+        return replace(sol, h=h, u=u, force=force, w=w, lam_g=lam_g, lam_x=lam_x)
+
     def unpack(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         N, nz, ns, nu = self.settings.horizon, self.nz, self.ns, self.nu
         return (

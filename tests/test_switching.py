@@ -10,6 +10,7 @@ import pytest
 
 from controller.mode1 import ModeISettings, SolverStatus
 from controller.mode2 import ModeIIOCP
+from controller.mode3 import ModeIIIOCP
 from controller.model import UVMSModel
 from controller.sqp import SQPSettings
 from controller.switching import Fallback, Mode, SwitchingNMPC, SwitchingSettings
@@ -233,14 +234,63 @@ def test_mode_three_plans_over_its_thrust_horizon_only_while_a_thruster_lives(pa
             assert np.all(u[:params.n_thrusters] == 0.0)
 
 
+def test_under_a_latency_mode_three_enters_over_two_intervals_and_the_held_plan_starts_the_next_step(
+        params, scene) -> None:
+    """The hull 0.15 m from the wall closing at 0.2 m/s, thrusters working (Mode III plans 3 intervals),
+    the tip put on the wall by Wall_InvKin; Mode III's first step under a 50 ms latency. Oracle 1: the
+    two-interval problem, built and solved here from Algorithm 2's guess; the step's plan must be its
+    plan over those intervals to 1e-9, then its last input and force held (the same rows). Oracle 2:
+    the step after, at the plan's node after one interval, started from that plan, must end where a
+    cold three-interval solve there from Algorithm 2's guess ends: cost within 1e-3 of it (IPOPT stops at
+    its acceptable level, dual infeasibility 1e-2) and first input within 2 % of its largest, in fewer
+    iterations. Oracle 3: without a latency the first step is the cold three-interval solve, to 1e-9."""
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, wall_approach(0.15, 0.2))
+    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
+    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(mode3_step_helper=False))
+    ocp = ctl.ocp3(wall)
+    N = ocp.settings.horizon
+    on = h.copy()
+    on[6:6 + params.n_joints] = ocp.onto_plane(h)
+    held = np.repeat(ctl.last_u[None], N, 0)
+
+    def first_step(latency: float):
+        ctl.latency, ctl._plan, ctl.last_u = latency, None, np.zeros(params.n_inputs)
+        ctl.mode, ctl._reported_mode, ctl.contact = Mode.III, Mode.II, wall
+        _, info = ctl.step(on, 0.0)
+        assert info.mode is Mode.III and info.status.usable and info.horizon == N
+        return info
+
+    info = first_step(0.05)
+    short = ModeIIIOCP(model, scene.planes, wall, replace(ocp.settings, horizon=2))
+    short.limit_inputs(ctl.lo, ctl.hi)
+    two = short.solve(on, short.contact_guess(on, held[:2], None, ctl.current), ctl.current)
+    assert two.status.usable and info.iterations == two.iterations
+    np.testing.assert_allclose(info.u_pred, np.vstack([two.u, two.u[-1:]]), rtol=0.0, atol=1e-9)
+    np.testing.assert_allclose(ctl._plan.force, np.vstack([two.force, two.force[-1:]]), rtol=0.0, atol=1e-9)
+
+    nxt = ctl._recomputed[1].copy()
+    cold = ocp.solve(nxt, ocp.contact_guess(nxt, held, None, ctl.current), ctl.current)
+    _, second = ctl.step(nxt, ocp.settings.dt)
+    assert cold.status.usable and second.status.usable
+    assert abs(ctl._plan.cost - cold.cost) < 1e-3
+    scale = float(np.max(np.abs(cold.u[0])))
+    np.testing.assert_allclose(second.u_pred[0], cold.u[0], rtol=0.0, atol=0.02 * scale)
+    assert second.iterations < cold.iterations
+
+    info = first_step(0.0)
+    full = ocp.solve(on, ocp.contact_guess(on, held, None, ctl.current), ctl.current)
+    np.testing.assert_allclose(ctl._plan.w, full.w, rtol=0.0, atol=1e-9)
+
+
 @pytest.mark.parametrize("latency", [0.0, 0.05])
 def test_under_a_latency_mode_threes_problems_are_built_before_the_first_step(params, scene, latency) -> None:
     """A step under a latency pays for what it builds: Mode III's problem with its angles regular at
     90 deg of pitch (`regular_pitch`), built when a hull first pitched past 75 deg, cost 85-95 ms in
     the middle of arm-deployed runs. Reset under a latency, the controller holds Mode III's problem
     against every plane over both of its horizons (3 intervals while a thruster lives, 5 once every
-    one is dead) with both pitched twins, before its first step; without one, only what its first
-    Mode III step would use (built at construction, as before)."""
+    one is dead) and over its entry's 2 (`mode3_entry_intervals`), with both pitched twins, before
+    its first step; without one, only what its first Mode III step would use (built at construction)."""
     from controller.protocol import Task
     from controller.switching import SwitchingController
 
@@ -250,7 +300,7 @@ def test_under_a_latency_mode_threes_problems_are_built_before_the_first_step(pa
     planes = range(len(scene.planes))
     built = {key: set(ocp._twins) for key, ocp in ctl.nmpc._mode3.items()}
     if latency:
-        assert built == {(p, n): {1.0, -1.0} for p in planes for n in (3, 5)}
+        assert built == {(p, n): {1.0, -1.0} for p in planes for n in (2, 3, 5)}
     else:
         assert built == {(p, 3): set() for p in planes}
 
