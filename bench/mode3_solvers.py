@@ -9,6 +9,8 @@ posed, so that a change of solver or options is measured offline, side by side, 
                                              # arm-deployed, seeds 0-1 (1 min)
   python bench/mode3_solvers.py              # every option set of OPTIONS on them (about 15 min)
   python bench/mode3_solvers.py --record 2 --families thrusters-dead
+  python bench/mode3_solvers.py --record 24 --latency 0.05 --ctl mode3_entry_intervals=none
+                                             # under a fixed 50 ms delay, with a setting overridden
   python bench/mode3_solvers.py --options default,converged --name mode3_solvers_thrusters_dead
                                              # the option sets whose names start so, on thrusters-dead's problems
   python bench/mode3_solvers.py --horizons 5,10   # the default options on the problems cut to each
@@ -74,16 +76,18 @@ OPTIONS: dict[str, dict] = {
 }
 
 
-def _record_run(args: tuple[str, int, str]) -> list[dict]:
-    """The Mode III problems of one closed loop (family, seed, preset)."""
+def _record_run(args: tuple[str, int, str, str, dict[str, str]]) -> list[dict]:
+    """The Mode III problems of one closed loop (family, seed, preset, latency, settings overridden)."""
     from validation.scenarios import SCENARIOS
 
-    family, seed, preset = args
-    return record_problems(SCENARIOS[family], seed, preset)
+    family, seed, preset, latency, ctl = args
+    return record_problems(SCENARIOS[family], seed, preset, latency, ctl)
 
 
-def record_problems(scenario, seed: int, preset: str) -> list[dict]:
-    """The Mode III problems of one closed loop, as the controller's on_solve hook reports them."""
+def record_problems(scenario, seed: int, preset: str, latency: str = "none",
+                    ctl: dict[str, str] | None = None) -> list[dict]:
+    """The Mode III problems of one closed loop (`latency` as validation.closed_loop.run takes it, `ctl`
+    the preset's settings overridden), as the controller's on_solve hook reports them."""
     from controller.switching import SolveEvent, SwitchingController
     from validation import presets
     from validation.closed_loop import run
@@ -100,12 +104,14 @@ def record_problems(scenario, seed: int, preset: str) -> list[dict]:
                       "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact, "horizon": e.ocp.settings.horizon,
                       "model_options": json.dumps(asdict(e.ocp.model.options))})
 
-    run(scenario, seed=seed, controller=SwitchingController(presets.resolve(preset).settings, recording))
+    run(scenario, seed=seed, latency=latency,
+        controller=SwitchingController(presets.resolve(preset, ctl).settings, recording))
     return calls
 
 
-def record(seeds: int, workers: int, controller: str, families: tuple[str, ...] = FAMILIES) -> None:
-    jobs = [(f, s, controller) for f in families for s in range(seeds)]
+def record(seeds: int, workers: int, controller: str, families: tuple[str, ...] = FAMILIES,
+           latency: str = "none", ctl: dict[str, str] | None = None) -> None:
+    jobs = [(f, s, controller, latency, ctl or {}) for f in families for s in range(seeds)]
     calls: list[dict] = []
     with ProcessPoolExecutor(workers) as ex:
         for c in tqdm(ex.map(_record_run, jobs), total=len(jobs), desc="closed loops", unit="run"):
@@ -115,7 +121,8 @@ def record(seeds: int, workers: int, controller: str, families: tuple[str, ...] 
     nan_like = {k: np.full_like(next(c[k] for c in calls if c[k] is not None), np.nan) for k in ("lam_g", "lam_x")}
     PROBLEMS.parent.mkdir(exist_ok=True)
     np.savez_compressed(PROBLEMS, **{k: np.array([c[k] if c[k] is not None else nan_like.get(k) for c in calls])
-                                     for k in calls[0]}, seeds=seeds, families=",".join(families))
+                                     for k in calls[0]}, seeds=seeds, families=",".join(families),
+                        latency=latency, ctl=json.dumps(ctl or {}))
     print(f"{len(calls)} problems ({sum(c['lam_g'] is None for c in calls)} cold) -> {PROBLEMS}")
 
 
@@ -284,6 +291,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--controller", default="switching",
                     help="the preset whose problems --record records (assets/presets.toml)")
     ap.add_argument("--families", default=",".join(FAMILIES), help="comma-separated scenarios --record runs")
+    ap.add_argument("--latency", default="none", help="the delay of --record's closed loops (uvms run's --latency)")
+    ap.add_argument("--ctl", action="append", default=[], metavar="KEY=VALUE",
+                    help="a setting of --controller overridden while recording (repeatable)")
     ap.add_argument("--options", default="", help="comma-separated prefixes of the option sets to compare "
                     "(the first of them in OPTIONS is the reference row; default: all)")
     ap.add_argument("--name", default="mode3_solvers", help="the results file's stem under bench/results")
@@ -298,7 +308,10 @@ def main(argv: list[str] | None = None) -> None:
         families = tuple(f for f in a.families.split(",") if f)
         if not families or any(f not in SCENARIOS for f in families):
             raise SystemExit(f"--families {a.families!r}; allowed: comma-separated names of {sorted(SCENARIOS)}")
-        record(a.record, a.workers, a.controller, families)
+        bad = [c for c in a.ctl if "=" not in c]
+        if bad:
+            raise SystemExit(f"--ctl {bad}; allowed: key=value")
+        record(a.record, a.workers, a.controller, families, a.latency, dict(c.split("=", 1) for c in a.ctl))
         return
     if a.horizons:
         try:
