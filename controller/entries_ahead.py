@@ -1,8 +1,9 @@
 """Mode entries solved ahead, in a helper process, while the mode before them runs.
 
-A mode's first solve starts cold and in strict real time at 50 ms it is mostly late: Mode II's
-deploy (the switching step, 64 ms median) and Mode III's first solve (100 ms median, 43 IPOPT
-iterations); later solves start from the shifted plan and its multipliers. `EntryHelper` forks a
+A mode's first solve starts cold and in strict real time at 50 ms it is often late: Mode II's
+deploy (the switching step, 64 ms median) and Mode III's first solve (over the whole horizon 100 ms
+median, 43 IPOPT iterations; over two intervals, `mode3_entry_intervals`, late in about 4 of 10
+episodes); later solves start from the shifted plan and its multipliers. `EntryHelper` forks a
 process that owns a copy of the switching NMPC (forked, so its compiled solvers are not loaded
 again) and solves the entries it is sent, as the entry step itself would:
 
