@@ -125,7 +125,8 @@ class SwitchingSettings:
     # under a latency, Mode III's cold first solve (Algorithm 2's guess) plans over this many intervals,
     # and its plan is held over the rest of the horizon (ModeIIIOCP.held_over) for the next step to start
     # from: on 72 first solves recorded at a 50 ms delay, 18 IPOPT iterations at the median (p95 38)
-    # against 34 (77) over 0.3 s, and the next step's solve as fast (15 vs 16). None: the whole horizon
+    # against 34 (77) over 0.3 s, and the next step's solve as fast (15 vs 16); strict 50 ms, first steps
+    # late in 29/73 episodes vs 66/72, 71/72 vs 69/72 (experiments/mode3_entry_intervals). None: the whole horizon
     mode3_entry_intervals: int | None = 2
 
     def model_options(self) -> ModelOptions:
@@ -570,7 +571,7 @@ class SwitchingNMPC:
         ocp = self.ocp3(self.contact)
         s = ocp.settings
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
-        ahead = None
+        ahead, entered = None, None
         if entry and self._helper is not None and self.settings.mode3_entry_helper:
             answer = self._helper.take(ContactEntry, self.contact, s.horizon)
             ahead = None if answer is None else answer[1]
@@ -589,13 +590,11 @@ class SwitchingNMPC:
             duals = ocp.shifted_duals(previous)
         elif ahead is not None:  # the entry solved ahead from the predicted contact state, from h measured now
             guess, duals = ocp.pack(np.vstack([h, ahead.h[1:]]), ahead.u, ahead.force), (ahead.lam_g, ahead.lam_x)
-        else:  # Algorithm 2
-            guess, duals = None, None
-        sol = self._mode3_entry(h, ocp) if guess is None else None
-        if sol is None:
-            if guess is None:
-                guess = ocp.contact_guess(h, np.repeat(self.last_u[None], s.horizon, 0), None, self.current)
-            sol = ocp.solve(h, guess, self.current, duals)
+        else:  # Algorithm 2, under a latency over fewer intervals first (_mode3_entry)
+            entered = self._mode3_entry(h, ocp)
+            held = np.repeat(self.last_u[None], s.horizon, 0)
+            guess, duals = (ocp.contact_guess(h, held, None, self.current) if entered is None else None), None
+        sol = entered if guess is None else ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
         if sol.status.usable:
             self._plan, self._recomputed = sol, self._resimulate(h, sol.u, s.dt, sol.force, ocp)
