@@ -21,7 +21,8 @@ posed, so that a change of solver or options is measured offline, side by side, 
 --record writes out/mode3_problems.npz (not committed, 1-2 MB; the closed loops are deterministic, so
 recording again gives the same problems on the same machine): per problem, the measured state, the primal guess
 (Algorithm 2's for a cold start, else the shifted recomputed plan), the multipliers of a warm start
-(NaN for a cold one), the input bounds (failed thrusters) and the contact plane. The evaluation
+(NaN for a cold one), the input bounds (failed thrusters), the contact plane and the horizon (the
+vectors NaN-padded to the longest horizon's length, trimmed on loading). The evaluation
 writes bench/results/mode3_solvers.md: per option set, usable solves, iterations, solve time
 (median, p95), ms per iteration, and the cost against the default's on the problems both solve.
 Solve times are wall clock on a shared machine; the iterations are what the options change.
@@ -37,6 +38,7 @@ from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict
 from pathlib import Path
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -102,7 +104,7 @@ def record_problems(scenario, seed: int, preset: str, latency: str = "none",
                       else np.array(current), "lam_g": None if duals is None else np.array(duals[0]),
                       "lam_x": None if duals is None else np.array(duals[1]), "lo": e.ocp._lo_u.copy(),
                       "hi": e.ocp._hi_u.copy(), "contact": e.ocp.contact, "horizon": e.ocp.settings.horizon,
-                      "model_options": json.dumps(asdict(e.ocp.model.options))})
+                      "model_options": json.dumps(asdict(e.ocp.model.options)), "iterations": e.solution.iterations})
 
     run(scenario, seed=seed, latency=latency,
         controller=SwitchingController(presets.resolve(preset, ctl).settings, recording))
@@ -116,17 +118,32 @@ def record(seeds: int, workers: int, controller: str, families: tuple[str, ...] 
     with ProcessPoolExecutor(workers) as ex:
         for c in tqdm(ex.map(_record_run, jobs), total=len(jobs), desc="closed loops", unit="run"):
             calls += c
+    save(calls, seeds, families, latency, ctl)
+
+
+def save(calls: list[dict], seeds: int, families: tuple[str, ...], latency: str = "none",
+         ctl: dict[str, str] | None = None) -> None:
+    """The recorded problems to PROBLEMS (with how they were recorded)."""
     if not any(c["lam_g"] is not None for c in calls):
         raise SystemExit("no warm-started Mode III problem in these runs; allowed: more seeds")
-    nan_like = {k: np.full_like(next(c[k] for c in calls if c[k] is not None), np.nan) for k in ("lam_g", "lam_x")}
     PROBLEMS.parent.mkdir(exist_ok=True)
-    np.savez_compressed(PROBLEMS, **{k: np.array([c[k] if c[k] is not None else nan_like.get(k) for c in calls])
-                                     for k in calls[0]}, seeds=seeds, families=",".join(families),
-                        latency=latency, ctl=json.dumps(ctl or {}))
+    columns = {k: [c[k] for c in calls] for k in calls[0]}
+    np.savez_compressed(PROBLEMS, **{k: _padded(v) if k in VECTORS else np.array(v) for k, v in columns.items()},
+                        seeds=seeds, families=",".join(families), latency=latency, ctl=json.dumps(ctl or {}))
     print(f"{len(calls)} problems ({sum(c['lam_g'] is None for c in calls)} cold) -> {PROBLEMS}")
 
 
-def load_problems() -> tuple[dict[str, np.ndarray], np.ndarray, UVMSModel, Scene]:
+VECTORS = ("guess", "lam_g", "lam_x")  # per problem, as long as its horizon makes them (a cold one: no multipliers)
+
+
+def _padded(rows: list[np.ndarray | None]) -> np.ndarray:
+    """Rows of different lengths (None: none) as one array, each padded with NaN (load_problems trims them)."""
+    width = max(len(r) for r in rows if r is not None)
+    return np.array([np.full(width, np.nan) if r is None else np.pad(r, (0, width - len(r)), constant_values=np.nan)
+                     for r in rows])
+
+
+def load_problems() -> tuple[dict[str, Any], np.ndarray, UVMSModel, Scene]:
     """The recorded problems, which of them are cold starts, the controller's model and the scene."""
     if not PROBLEMS.exists():
         raise SystemExit(f"{PROBLEMS} is missing; allowed: run `python bench/mode3_solvers.py --record 2` first")
@@ -136,10 +153,14 @@ def load_problems() -> tuple[dict[str, np.ndarray], np.ndarray, UVMSModel, Scene
         raise SystemExit(f"{PROBLEMS} does not hold one controller model's options and each problem's horizon; "
                          "allowed: record again")
     options = ModelOptions(**json.loads(str(data["model_options"][0])))
-    return data, np.isnan(data["lam_g"][:, 0]), UVMSModel(load_params(), scene.water, options), scene
+    cold = np.isnan(data["lam_g"][:, 0])
+    for k in VECTORS:  # each row without its padding (problems of different horizons share the array)
+        data[k] = [row[:int(np.flatnonzero(np.isfinite(row))[-1]) + 1] if np.isfinite(row).any() else row
+                   for row in data[k]]
+    return data, cold, UVMSModel(load_params(), scene.water, options), scene
 
 
-def replayed(data: dict[str, np.ndarray], cold: np.ndarray, model: UVMSModel, scene: Scene,
+def replayed(data: dict[str, Any], cold: np.ndarray, model: UVMSModel, scene: Scene,
              ipopt_options: dict | None = None) -> Iterator[tuple[int, ModeIIIOCP, ModeIIISolution]]:
     """Each recorded problem solved as the controller posed it (its plane, horizon, input bounds, guess
     and, when warm, multipliers), with `ipopt_options` on Mode III's own: (its index, the problem

@@ -54,6 +54,29 @@ def test_mode3_recorder_records_mode_three_problems() -> None:
 
 
 @pytest.mark.slow
+def test_mode3_recording_under_a_latency_replays_each_horizon_as_the_closed_loop_solved_it(tmp_path, monkeypatch
+                                                                                          ) -> None:
+    """Under a 50 ms delay Mode III's first solve plans over two intervals and the next over three, so
+    one recording holds problems of two lengths (saved padded, trimmed on loading). The demo's first
+    1.2 s recorded (Mode III from 0.8 s), saved and loaded: both horizons are there, and each problem replayed as posed ends
+    in the closed loop's own iteration count (IPOPT is deterministic on the same inputs), its plan as
+    long as its horizon makes it."""
+    bench = _load("mode3_solvers")
+    from dataclasses import replace
+
+    import validation.scenarios as scenarios
+
+    calls = bench.record_problems(replace(scenarios.SCENARIOS["wall-headon"], duration=1.2), 0, "switching", "0.05")
+    monkeypatch.setattr(bench, "PROBLEMS", tmp_path / "mode3_problems.npz")
+    bench.save(calls, 1, ("wall-headon",), "0.05")
+    data, cold, model, scene = bench.load_problems()
+    assert {c["horizon"] for c in calls} == {2, 3} and cold.tolist() == [c["lam_g"] is None for c in calls]
+    for i, ocp, sol in bench.replayed(data, cold, model, scene):
+        assert len(data["guess"][i]) == len(calls[i]["guess"]) == len(sol.w)
+        assert ocp.settings.horizon == calls[i]["horizon"] and sol.iterations == calls[i]["iterations"]
+
+
+@pytest.mark.slow
 def test_mode2_recorder_records_warm_startable_problems() -> None:
     """bench/mode2_warm_start.py's recorder on the demo's run (wall-headon, seed 0, Mode II after the
     switch for several steps): every problem it records comes with the previous solve's resampled
