@@ -58,9 +58,9 @@ def test_mode3_recording_under_a_latency_replays_each_horizon_as_the_closed_loop
                                                                                           ) -> None:
     """Under a 50 ms delay Mode III's first solve plans over two intervals and the next over three, so
     one recording holds problems of two lengths (saved padded, trimmed on loading). The demo's first
-    1.2 s recorded (Mode III from 0.8 s), saved and loaded: both horizons are there, and each problem replayed as posed ends
-    in the closed loop's own iteration count (IPOPT is deterministic on the same inputs), its plan as
-    long as its horizon makes it."""
+    1.2 s recorded (Mode III from 0.8 s), saved and loaded: both horizons are there, and each problem
+    replayed as posed ends in the closed loop's own iteration count (IPOPT is deterministic on the
+    same inputs), its plan as long as its horizon makes it."""
     bench = _load("mode3_solvers")
     from dataclasses import replace
 
