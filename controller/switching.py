@@ -130,7 +130,7 @@ class SwitchingSettings:
     mode3_entry_intervals: int | None = 2
     # ... for this many of its first steps: each after the first from the plan before it (its successor
     # solved ahead or the shifted plan) cut to those intervals, its plan again held over the horizon
-    mode3_entry_steps: int = 1
+    mode3_entry_steps: int = 2
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""

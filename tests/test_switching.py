@@ -247,7 +247,7 @@ def test_under_a_latency_mode_three_enters_over_two_intervals_and_the_held_plan_
     model = UVMSModel(params, scene.water)
     h, ref = initial_state(params, wall_approach(0.15, 0.2))
     wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
-    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(mode3_step_helper=False))
+    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(mode3_step_helper=False, mode3_entry_steps=1))
     ocp = ctl.ocp3(wall)
     N = ocp.settings.horizon
     on = h.copy()
