@@ -223,6 +223,21 @@ def evaluate(prefixes: tuple[str, ...] = ("",), stem: str = "mode3_solvers") -> 
     print("\n".join(lines))
 
 
+def cut(ocp: ModeIIIOCP, guess: np.ndarray, duals: tuple[np.ndarray, np.ndarray] | None, recorded: int
+        ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """A recorded problem's primal guess and multipliers (of a `recorded`-interval plan) cut to the
+    first ocp.settings.horizon intervals and the state after them."""
+    N, nz, ns = ocp.settings.horizon, ocp.nz, ocp.ns
+    if N > recorded:
+        raise SystemExit(f"horizon {N} is longer than the recorded problems' {recorded}; allowed: at most {recorded}")
+    primal = np.concatenate([guess[:N * nz], guess[N * nz:N * nz + ns]])
+    if duals is None:
+        return primal, None
+    lg, lx = duals
+    nc = (len(lg) - ns) // recorded
+    return primal, (lg[:ns + N * nc], np.concatenate([lx[:N * nz], lx[N * nz:N * nz + ns]]))
+
+
 def horizons(values: list[int]) -> None:
     """The default options on the recorded problems cut to each horizon, one horizon after the other."""
     data, cold, model, scene = load_problems()
@@ -238,11 +253,8 @@ def horizons(values: list[int]) -> None:
             nz = ocp.nz
             recorded = (len(data["guess"][i]) - ocp.ns) // nz
             ocp.limit_inputs(data["lo"][i], data["hi"][i])
-            if N > recorded:
-                raise SystemExit(f"horizon {N} is longer than the recorded problems' {recorded}; allowed: at most "
-                                 f"{recorded}")
-            guess, duals = ocp.truncated(data["guess"][i], None if cold[i] else (data["lam_g"][i], data["lam_x"][i]),
-                                         recorded)
+            guess, duals = cut(ocp, data["guess"][i], None if cold[i] else (data["lam_g"][i], data["lam_x"][i]),
+                               recorded)
             sol = ocp.solve(data["h0"][i], guess, data["current"][i], duals)
             rows[N].append((sol.status.usable, sol.iterations, sol.solve_time))
     n = len(cold)

@@ -427,21 +427,6 @@ class ModeIIIOCP:
         return (np.concatenate([lg[:ns], lg[ns + nc:], lg[-nc:]]),
                 np.concatenate([lx[nz:], lx[-nz:-ns], lx[-ns:]]))
 
-    def truncated(self, guess: np.ndarray, duals: tuple[np.ndarray, np.ndarray] | None, horizon: int
-                  ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
-        """A start (primal guess, multipliers or None) of a problem over `horizon` intervals cut to this
-        problem's first intervals and the state after them (a start for its warm solve)."""
-        N, nz, ns = self.settings.horizon, self.nz, self.ns
-        if N > horizon:
-            raise ValueError(f"this problem's horizon {N} is longer than the start's {horizon}; allowed: at most "
-                             f"{horizon}")
-        primal = np.concatenate([guess[:N * nz], guess[N * nz:N * nz + ns]])
-        if duals is None:
-            return primal, None
-        lg, lx = duals
-        nc = (len(lg) - ns) // horizon
-        return primal, (lg[:ns + N * nc], np.concatenate([lx[:N * nz], lx[N * nz:N * nz + ns]]))
-
     def held_over(self, sol: ModeIIISolution, horizon: int) -> ModeIIISolution:
         """`sol`, a plan over this problem's horizon, held over `horizon` >= it intervals: its last
         interval's inputs, forces and multipliers repeated, its last state repeated at the added nodes

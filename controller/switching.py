@@ -128,9 +128,6 @@ class SwitchingSettings:
     # against 34 (77) over 0.3 s, and the next step's solve as fast (15 vs 16); strict 50 ms, first steps
     # late in 29/73 episodes vs 66/72, 71/72 vs 69/72 (experiments/mode3_entry_intervals). None: the whole horizon
     mode3_entry_intervals: int | None = 2
-    # ... for this many of its first steps: each after the first from the plan before it (its successor
-    # solved ahead or the shifted plan) cut to those intervals, its plan again held over the horizon
-    mode3_entry_steps: int = 2
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""
@@ -211,7 +208,6 @@ class SwitchingNMPC:
         self.last_u = np.zeros(model.n_inputs)
         self._distance_maps: dict[int, Any] = {}  # _closest_plane's mapped distances, by number of states
         self._mode3_plans = 0  # Mode III plans made so far (which one a ContactStep answer continues)
-        self._mode3_short = 0  # the Mode III episode's plans so far over its entry's intervals (_mode3_entry)
         self._reported_mode = Mode.I
         self._switch: SwitchReason | None = None  # why this step left Mode I
         self._ocp_time = 0.0
@@ -569,16 +565,6 @@ class SwitchingNMPC:
         sol = short.solve(h, short.contact_guess(h, held, None, self.current), self.current)
         return short.held_over(sol, N) if sol.status.usable else None
 
-    def _mode3_short_step(self, h: np.ndarray, ocp: ModeIIIOCP, guess: np.ndarray,
-                          duals: tuple[np.ndarray, np.ndarray] | None) -> ModeIIISolution | None:
-        """A Mode III step after its entry's short plan (`mode3_entry_steps`): its start over `ocp`'s
-        horizon cut to `mode3_entry_intervals` intervals, solved warm, the plan held over the horizon;
-        None when that solve fails (the whole horizon's is then solved from the same start)."""
-        short = self.ocp3(self.contact, self.settings.mode3_entry_intervals)
-        g, d = short.truncated(guess, duals, ocp.settings.horizon)
-        sol = short.solve(h, g, self.current, d)
-        return short.held_over(sol, ocp.settings.horizon) if sol.status.usable else None
-
     def _step_mode3(self, h: np.ndarray, entry: bool = False) -> _ModeStep:
         """Mode III's step; `entry`: its first after Mode II (the entry helper's answer, if any, is its start)."""
         self._reported_mode = Mode.III
@@ -586,8 +572,6 @@ class SwitchingNMPC:
         s = ocp.settings
         previous = self._plan if isinstance(self._plan, ModeIIISolution) else None
         ahead, entered = None, None
-        if entry:
-            self._mode3_short = 0
         if entry and self._helper is not None and self.settings.mode3_entry_helper:
             answer = self._helper.take(ContactEntry, self.contact, s.horizon)
             ahead = None if answer is None else answer[1]
@@ -610,10 +594,6 @@ class SwitchingNMPC:
             entered = self._mode3_entry(h, ocp)
             held = np.repeat(self.last_u[None], s.horizon, 0)
             guess, duals = (ocp.contact_guess(h, held, None, self.current) if entered is None else None), None
-        if guess is not None and previous is not None and 0 < self._mode3_short < self.settings.mode3_entry_steps:
-            entered = self._mode3_short_step(h, ocp, guess, duals)
-            guess = None if entered is not None else guess
-        self._mode3_short = self._mode3_short + 1 if entered is not None else 0
         sol = entered if guess is None else ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
         if sol.status.usable:

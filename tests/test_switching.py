@@ -247,7 +247,7 @@ def test_under_a_latency_mode_three_enters_over_two_intervals_and_the_held_plan_
     model = UVMSModel(params, scene.water)
     h, ref = initial_state(params, wall_approach(0.15, 0.2))
     wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
-    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(mode3_step_helper=False, mode3_entry_steps=1))
+    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(mode3_step_helper=False))
     ocp = ctl.ocp3(wall)
     N = ocp.settings.horizon
     on = h.copy()
@@ -281,42 +281,6 @@ def test_under_a_latency_mode_three_enters_over_two_intervals_and_the_held_plan_
     info = first_step(0.0)
     full = ocp.solve(on, ocp.contact_guess(on, held, None, ctl.current), ctl.current)
     np.testing.assert_allclose(ctl._plan.w, full.w, rtol=0.0, atol=1e-9)
-
-
-@pytest.mark.parametrize("steps", [1, 2])
-def test_under_a_latency_mode_threes_second_step_plans_over_the_entrys_intervals(params, scene, steps) -> None:
-    """As the entry test's setting: Mode III's first step under a 50 ms latency plans 2 intervals, held
-    over 3. With `mode3_entry_steps = 2` the second step, at the plan's node after one interval, also
-    plans 2 intervals from that plan and holds the last: oracle, a cold two-interval solve there from
-    Algorithm 2's guess, whose cost it must reach within 1e-3 (IPOPT's acceptable level) with its first
-    input within 2 % of the largest. The third step plans all 3 intervals (its last two inputs
-    differ). With 1 (the mutation's check) the second step already plans all 3."""
-    model = UVMSModel(params, scene.water)
-    h, ref = initial_state(params, wall_approach(0.15, 0.2))
-    wall = next(i for i, p in enumerate(scene.planes) if p.name == "wall")
-    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(mode3_step_helper=False, mode3_entry_steps=steps))
-    ocp = ctl.ocp3(wall)
-    dt = ocp.settings.dt
-    on = h.copy()
-    on[6:6 + params.n_joints] = ocp.onto_plane(h)
-    ctl.latency, ctl.mode, ctl._reported_mode, ctl.contact = 0.05, Mode.III, Mode.II, wall
-    _, first = ctl.step(on, 0.0)
-    assert first.mode is Mode.III and first.status.usable
-    nxt = ctl._recomputed[1].copy()
-    _, second = ctl.step(nxt, dt)
-    assert second.status.usable and second.horizon == ocp.settings.horizon
-    held = bool(np.array_equal(second.u_pred[2], second.u_pred[1]))
-    assert held == (steps == 2)
-    if steps == 2:
-        short = ModeIIIOCP(model, scene.planes, wall, replace(ocp.settings, horizon=2))
-        short.limit_inputs(ctl.lo, ctl.hi)
-        cold = short.solve(nxt, short.contact_guess(nxt, np.repeat(ctl.last_u[None], 2, 0), None, ctl.current),
-                           ctl.current)
-        assert cold.status.usable and abs(ctl._plan.cost - cold.cost) < 1e-3
-        scale = float(np.max(np.abs(cold.u[0])))
-        np.testing.assert_allclose(second.u_pred[0], cold.u[0], rtol=0.0, atol=0.02 * scale)
-        _, third = ctl.step(ctl._recomputed[1].copy(), 2 * dt)
-        assert third.status.usable and not np.array_equal(third.u_pred[2], third.u_pred[1])
 
 
 @pytest.mark.parametrize("latency", [0.0, 0.05])

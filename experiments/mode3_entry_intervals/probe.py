@@ -13,7 +13,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, "bench")
-from mode3_solvers import load_problems
+from mode3_solvers import cut, load_problems
 
 from controller.mode3 import ModeIIIOCP, ModeIIISettings
 
@@ -47,7 +47,7 @@ for N in (1, 2, 3):
                 ocps[c, n] = ModeIIIOCP(model, scene.planes, c, ModeIIISettings(horizon=n))
             ocps[c, n].limit_inputs(data["lo"][i], data["hi"][i])
         short, full = ocps[c, N], ocps[c, 3]
-        sol = short.solve(data["h0"][i], short.truncated(data["guess"][i], None, 3)[0], data["current"][i])
+        sol = short.solve(data["h0"][i], cut(short, data["guess"][i], None, 3)[0], data["current"][i])
         its.append(sol.iterations)
         times.append(1e3 * sol.solve_time)
         usable += sol.status.usable

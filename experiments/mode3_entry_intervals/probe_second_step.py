@@ -11,7 +11,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, "bench")
-from mode3_solvers import load_problems
+from mode3_solvers import cut, load_problems
 
 from controller.mode3 import ModeIIIOCP, ModeIIISettings
 
@@ -29,7 +29,7 @@ for i in second:
             ocps[c, N] = ModeIIIOCP(model, scene.planes, c, ModeIIISettings(horizon=N))
         ocp = ocps[c, N]
         ocp.limit_inputs(data["lo"][i], data["hi"][i])
-        guess, duals = ocp.truncated(data["guess"][i], (data["lam_g"][i], data["lam_x"][i]), 3)
+        guess, duals = cut(ocp, data["guess"][i], (data["lam_g"][i], data["lam_x"][i]), 3)
         sol = ocp.solve(data["h0"][i], guess, data["current"][i], duals)
         rows[N].append((sol.iterations if sol.status.usable else np.nan, 1e3 * sol.solve_time))
 for N, r in rows.items():
