@@ -185,3 +185,46 @@ def test_the_helper_runs_only_under_a_latency_on_the_wall_clock(params, scene, l
         assert (ctl.nmpc._helper is not None) is started
     finally:
         ctl.nmpc.close()
+
+
+@pytest.mark.parametrize("early", [True, False])
+def test_a_mode_one_step_asks_for_the_deploy_before_its_other_screens(params, scene, early) -> None:
+    """wall-headon's start (horizontal thrusters dead, 0.25 m/s current onto the wall) under a 50 ms
+    latency: the braking rollout fails at every step. The helper here records its requests and the
+    number of Mode I solves made before each. With `deploy_request_early` the second step asks first,
+    before any Mode I solve, for the deploy from the previous plan's node after one interval: oracle,
+    the model's RK4 of that plan's second input held one interval from the step's planning state in
+    100 substeps, to 1e-4 (the 4-substep re-simulation's own error here is about 1e-5), for the time
+    one interval after that state's; then, after its solves, from its flown plan for the same time.
+    Without it only the second request is made; the first step (no previous plan) makes only that."""
+    from validation import scenarios
+
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, scenarios.get("wall-headon"))
+    ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(deploy_request_early=early))
+    ctl.set_failed_thrusters((0, 1, 2, 3))
+    ctl.current, ctl.latency = water([0.25, 0.0, 0.0]), 0.05
+    solves, requests = [0], []
+    solve = ctl.mode1.solve
+
+    def counted(*args, **kwargs):
+        solves[0] += 1
+        return solve(*args, **kwargs)
+
+    ctl.mode1.solve = counted
+    ctl._helper = type("Recorder", (), {"take": lambda self, *a: None,
+                                        "submit": lambda self, r: requests.append((r, solves[0])),
+                                        "close": lambda self: None})()
+    u0, first = ctl.step(h, 0.0)
+    assert first.mode is Mode.I and len(requests) == 1 and requests[0][1] > 0
+    previous, dt = ctl._plan, ctl.settings.mode1.dt
+    requests.clear()
+    solves[0] = 0
+    h_a = model.held_steps(h, u0, 0.15, 150, vc=ctl.current)
+    _, second = ctl.step(model.held_steps(h, u0, 0.1, 100, vc=ctl.current), 0.1, ahead=(h_a, 0.15))
+    assert second.mode is Mode.I
+    assert [n > 0 for _, n in requests] == ([False, True] if early else [True])
+    assert all(abs(r.t - (0.15 + dt)) < 1e-12 for r, _ in requests)
+    if early:
+        np.testing.assert_allclose(requests[0][0].h, model.held_steps(h_a, previous.u[1], dt, 100, vc=ctl.current),
+                                   rtol=0.0, atol=1e-4)
