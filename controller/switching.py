@@ -117,9 +117,6 @@ class SwitchingSettings:
     # that answer (not the deploy guess, cold): strict 50 ms 72/72 vs 67/72, Mode II late 1-4 % vs
     # 19-26 % (experiments/mode2_entry_helper)
     mode2_entry_helper: bool = True
-    # ... asked as soon as a Mode I step's braking rollout has failed, from the previous plan shifted
-    # (the flown plan's request follows at the step's end; the helper answers the newest it has)
-    deploy_request_early: bool = True
     # ... and each Mode III step's successor from its plan's next node, warm from that plan, and the
     # next Mode III step starts from that answer (not the shifted plan) when it continues the same plan:
     # strict 50 ms, later Mode III steps late 2.3 % vs 5.4 % (p = 2.1e-6), 72/72 vs 71/72
@@ -397,12 +394,8 @@ class SwitchingNMPC:
         deadline = False  # the deploy deadline, asked by the certificate once its braking rollout has failed
 
         def needed(screened: Certificate) -> bool:
-            """Whether F's answer still matters: not when the deploy deadline switches either way.
-            First, with `deploy_request_early`, the helper is asked for Mode II's deploy from the
-            previous plan's shifted node after one interval (the flown plan's request follows)."""
+            """Whether F's answer still matters: not when the deploy deadline switches either way."""
             nonlocal deadline
-            if shifted is not None and self.settings.deploy_request_early:
-                self._request_deploy(screened, shifted[0][1], t + s.dt)
             deadline = self._deadline(h, screened)
             return not deadline
 
@@ -425,8 +418,11 @@ class SwitchingNMPC:
         if sol.status.usable:
             self._plan = sol
             hp = fresh["h"] if "h" in fresh else self._resimulate(h, sol.u, s.dt)
-            if cert is not None and cert.rollout_clearance < 0:  # Mode II's deploy from where the next step plans
-                self._request_deploy(cert, hp[1], t + s.dt)
+            if self._helper is not None and self.settings.mode2_entry_helper and cert is not None \
+                    and cert.rollout_clearance < 0:  # Mode II's deploy from where the next step plans
+                self._helper.submit(DeployEntry(self._closest_plane(cert.rollout), self.settings.mode2.horizon,
+                                                hp[1].copy(), t + s.dt, self.current.copy(), self.lo.copy(),
+                                                self.hi.copy()))
             return _ModeStep(sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon, hp, sol.u,
                              certificate=cert)
         if previous is not None:
@@ -500,14 +496,6 @@ class SwitchingNMPC:
         t_c = ocp2.time_to_contact(h, N_max, self.current)
         t_deploy = len(guess[1]) * guess[2] if t_c is None else t_c
         return s.dt * (1 + close.index(True)) <= t_deploy + s.dt + self.settings.deadline_lead
-
-    def _request_deploy(self, cert: Certificate, h_next: np.ndarray, t_next: float) -> None:
-        """With `mode2_entry_helper` and a helper: ask it for Mode II's deploy from h_next at t_next [s]
-        against the plane the braking rollout of `cert` comes closest to."""
-        if self._helper is not None and self.settings.mode2_entry_helper:
-            self._helper.submit(DeployEntry(self._closest_plane(cert.rollout), self.settings.mode2.horizon,
-                                            np.array(h_next, float), t_next, self.current.copy(), self.lo.copy(),
-                                            self.hi.copy()))
 
     def _deploy_ahead(self, N: int) -> ModeIISolution | None:
         """With `mode2_entry_helper`, at Mode II's entry (Algorithm 1's longest horizon N): the deploy
