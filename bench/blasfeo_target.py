@@ -34,7 +34,7 @@ OUT = Path(__file__).parent / "results"
 def worker(out: Path) -> None:
     """One Mode I closed loop; its solve times, inputs and mapped libblasfeo to `out` (JSON)."""
     sys.path.insert(0, str(Path(__file__).parent))
-    from nmpc_modes import STEPS, approach
+    from nmpc_modes import approach, closed_loop
 
     from controller.mode1 import ModeIOCP, ModeISettings
     from controller.model import UVMSModel
@@ -45,14 +45,14 @@ def worker(out: Path) -> None:
     h, ref = approach(params)
     settings = ModeISettings()
     ocp = ModeIOCP(model, scene.planes, settings)
-    times, inputs, previous = [], [], None
-    for _ in range(STEPS):
-        sol = ocp.solve(h, ref, previous=previous)
-        previous = sol
-        times.append(sol.solve_time)
+    inputs, state = [], {"previous": None}
+
+    def solve(x: np.ndarray) -> tuple[np.ndarray, float, int, bool]:
+        sol = state["previous"] = ocp.solve(x, ref, previous=state["previous"])
         inputs.append(sol.u[0].tolist())
-        for _ in range(10):
-            h = model.step(h, sol.u[0], settings.dt / 10)
+        return sol.u[0], sol.solve_time, sol.iterations, sol.status.usable
+
+    times, _, _ = closed_loop(solve, model, h, settings)
     mapped = sorted({line.split()[-1] for line in open("/proc/self/maps") if "libblasfeo" in line})
     out.write_text(json.dumps({"times": times, "inputs": inputs, "blasfeo": mapped}))
 
