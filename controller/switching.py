@@ -128,6 +128,10 @@ class SwitchingSettings:
     # against 34 (77) over 0.3 s, and the next step's solve as fast (15 vs 16); strict 50 ms, first steps
     # late in 29/73 episodes vs 66/72, 71/72 vs 69/72 (experiments/mode3_entry_intervals). None: the whole horizon
     mode3_entry_intervals: int | None = 2
+    # under a latency, a Mode I step whose certificate solved the minimum-violation problem (an episode's
+    # first, whose input acts at once) also solves the next step's plan from the state predicted for it
+    # and the next step starts from that plan, unshifted (SwitchingNMPC._solve_next_mode1)
+    first_step_solves_next: bool = True
 
     def model_options(self) -> ModelOptions:
         """The options of the model this controller plans on."""
@@ -214,6 +218,7 @@ class SwitchingNMPC:
         self._deploy: tuple[ModeIIOCP, np.ndarray, tuple] | None = None  # the deadline's deploy rollout this step
         self._helper: EntryHelper | None = None  # mode entries solved ahead (start_entry_helper)
         self._t = 0.0  # s: the time of the state this step plans from
+        self._plan_ahead = False  # whether Mode I's plan was solved for the next step (_solve_next_mode1)
         self.latency = 0.0  # s: the delay its answers act after (SwitchingController sets it)
 
     def prepare_every_problem(self) -> None:
@@ -366,7 +371,7 @@ class SwitchingNMPC:
         previous = self._plan if isinstance(self._plan, OCPSolution) else None
         shifted, guess = None, None
         if previous is not None:
-            us = np.vstack([previous.u[1:], previous.u[-1:]])
+            us = previous.u if self._plan_ahead else np.vstack([previous.u[1:], previous.u[-1:]])
             shifted = (self._resimulate(h, us, s.dt), us)
             guess = ocp.guess_from_rollout(*shifted)
         fresh: dict = {}
@@ -416,8 +421,11 @@ class SwitchingNMPC:
         sol = fresh["sol"] if "sol" in fresh else ocp.solve(h, ref, self.current, previous=previous, guess=guess)
         self._ocp_time = sol.solve_time
         if sol.status.usable:
-            self._plan = sol
+            self._plan, self._plan_ahead = sol, False
             hp = fresh["h"] if "h" in fresh else self._resimulate(h, sol.u, s.dt)
+            if self.latency > 0.0 and self.settings.first_step_solves_next and cert is not None \
+                    and cert.method is Method.MINIMUM_VIOLATION:
+                self._solve_next_mode1(h, t, sol)
             if self._helper is not None and self.settings.mode2_entry_helper and cert is not None \
                     and cert.rollout_clearance < 0:  # Mode II's deploy from where the next step plans
                 self._helper.submit(DeployEntry(self._closest_plane(cert.rollout), self.settings.mode2.horizon,
@@ -426,11 +434,31 @@ class SwitchingNMPC:
             return _ModeStep(sol.u[0], sol.status, Fallback.NONE, sol.iterations, s.dt, s.horizon, hp, sol.u,
                              certificate=cert)
         if previous is not None:
-            self._plan = None
-            return _ModeStep(previous.u[1], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
-                             previous.h[1:], previous.u[1:], certificate=cert)
+            self._plan, k = None, 0 if self._plan_ahead else 1
+            return _ModeStep(previous.u[k], sol.status, Fallback.SHIFTED_PLAN, sol.iterations, s.dt, s.horizon,
+                             previous.h[k:], previous.u[k:], certificate=cert)
         hs, us = self.feasibility.braking_rollout(h, self.current)
         return _ModeStep(us[0], sol.status, Fallback.GUESS, sol.iterations, s.dt, s.horizon, hs, us, certificate=cert)
+
+    def _solve_next_mode1(self, h: np.ndarray, t: float, sol: OCPSolution) -> None:
+        """The next Mode I step's plan, solved now from the state predicted for it: the input u_0 of
+        sol (this step's plan, from h at t) acts at once and is held until the next step's answer
+        acts, a period plus the latency later. Solved as that step would (from sol shifted by one
+        interval), then continued by the SQP with a line search to a point of F when its
+        re-simulation is not one (FeasibilityTest.continued). The next step starts from it."""
+        s, ocp = self.settings.mode1, self.mode1
+        t1 = t + s.dt + self.latency
+        h1 = self.predict(h, sol.u[0], t1 - t)
+        ref = np.asarray(self.reference(t1), float)
+        us = np.vstack([sol.u[1:], sol.u[-1:]])
+        guess = ocp.guess_from_rollout(self._resimulate(h1, us, s.dt), us)
+        nxt = ocp.solve(h1, ref, self.current, previous=sol, guess=guess)
+        if not nxt.status.usable:
+            return
+        if not self.feasibility.plan_is_feasible(self._resimulate(h1, nxt.u, s.dt), nxt.u):
+            found = self.feasibility.continued(ocp, h1, ref, self.current, nxt.w)
+            nxt = found[1] if found is not None else nxt
+        self._plan, self._plan_ahead = nxt, True
 
     def _may_release(self, h: np.ndarray, closing: np.ndarray) -> bool:
         """Mode III -> I: the hull moves away from the contact plane faster than `separation_speed`

@@ -283,6 +283,47 @@ def test_under_a_latency_mode_three_enters_over_two_intervals_and_the_held_plan_
     np.testing.assert_allclose(ctl._plan.w, full.w, rtol=0.0, atol=1e-9)
 
 
+def test_under_a_latency_the_first_mode_one_step_solves_the_next_plan_from_the_predicted_state(
+        params, scene) -> None:
+    """wall-headon's start (horizontal thrusters dead, 0.25 m/s current onto the wall) under a 50 ms
+    latency: the first step certifies F by the minimum-violation problem and its input acts at once,
+    held until the next step's answer acts 0.15 s later. With `first_step_solves_next` that step's own
+    input is unchanged to the bit. Oracle 1: the plan kept for the next step starts at the model's
+    RK4 state after that input held 0.15 s in 150 substeps, to 5e-4 (the 4-substep prediction's own
+    truncation error is 3e-5 here; the planner's clearance margin is 2 cm). Oracle 2: its inputs,
+    re-simulated from there in 150 substeps per interval (not the screens' 4), keep every body above
+    the margin within the bounds. Oracle 3: the next step, at that state (a plant that is the model),
+    is certified by that plan (the screens' previous plan) and solves Mode I in the real-time budget;
+    without the setting the same step needs the SQP continued by its line search."""
+    from controller.feasibility import Method
+    from controller.model import water
+    from controller.rollouts import simulate
+    from validation import scenarios
+
+    model = UVMSModel(params, scene.water)
+    h, ref = initial_state(params, scenarios.get("wall-headon"))
+    steps = {}
+    for ahead in (True, False):
+        ctl = SwitchingNMPC(model, scene.planes, ref, SwitchingSettings(first_step_solves_next=ahead))
+        ctl.set_failed_thrusters((0, 1, 2, 3))
+        ctl.current, ctl.latency = water([0.25, 0.0, 0.0]), 0.05
+        u0, first = ctl.step(h, 0.0)
+        assert first.mode is Mode.I and first.certificate.method is Method.MINIMUM_VIOLATION
+        fine = model.held_steps(h, u0, 0.15, 150, vc=ctl.current)
+        if ahead:
+            kept = ctl._plan
+            np.testing.assert_allclose(kept.h[0], fine, rtol=0.0, atol=5e-4)
+            hs = simulate(model, fine, kept.u, ctl.settings.mode1.dt, substeps=150, current=ctl.current)
+            assert ctl.feasibility.plan_is_feasible(hs, kept.u)
+        _, second = ctl.step(model.held_steps(h, u0, 0.1, 100, vc=ctl.current), 0.1, ahead=(fine, 0.15))
+        steps[ahead] = (u0, second)
+    np.testing.assert_array_equal(steps[True][0], steps[False][0])
+    on, off = steps[True][1], steps[False][1]
+    assert on.mode is Mode.I and on.certificate.method is Method.PREVIOUS_PLAN
+    assert on.iterations <= ctl.settings.mode1.sqp.max_iter
+    assert off.mode is Mode.I and off.certificate.method is Method.REFINED_PLAN
+
+
 @pytest.mark.parametrize("latency", [0.0, 0.05])
 def test_under_a_latency_mode_threes_problems_are_built_before_the_first_step(params, scene, latency) -> None:
     """A step under a latency pays for what it builds: Mode III's problem with its angles regular at
