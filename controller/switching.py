@@ -130,7 +130,9 @@ class SwitchingSettings:
     mode3_entry_intervals: int | None = 2
     # under a latency, a Mode I step whose certificate solved the minimum-violation problem (an episode's
     # first, whose input acts at once) also solves the next step's plan from the state predicted for it
-    # and the next step starts from that plan, unshifted (SwitchingNMPC._solve_next_mode1)
+    # and the next step starts from that plan, unshifted (SwitchingNMPC._solve_next_mode1). Strict 50 ms,
+    # 144 held-out runs: the first delayed Mode I step late in 3/96 wall runs vs 96/96, 142/144 vs
+    # 144/144 (p = 0.5), the hull further off (experiments/first_step_solves_next_strict)
     first_step_solves_next: bool = True
 
     def model_options(self) -> ModelOptions:
