@@ -32,7 +32,6 @@ and their compiled derivatives do not depend on N_p and are built once per conta
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -49,7 +48,6 @@ from controller.transcription import (
     SolverStatus,
     clearances,
     contact_rows,
-    end_rows,
     ipopt_status,
     midpoint_residual,
     smooth_norm,
@@ -57,8 +55,6 @@ from controller.transcription import (
     tip_gap,
 )
 from uvms.scene import Plane
-
-RELEASE_ALLOWANCE = 0.001  # m: how much closer than at h0 a released plane's tip and last link may come
 
 
 @dataclass(frozen=True)
@@ -258,12 +254,10 @@ class ModeIIOCP:
         return np.concatenate([*blocks, hs[N], [dt]])
 
     def solve(self, h0: np.ndarray, guess: tuple[np.ndarray, np.ndarray, float],
-              current: np.ndarray | None = None, duals: tuple[np.ndarray, np.ndarray] | None = None,
-              released: int | None = None) -> ModeIISolution:
+              current: np.ndarray | None = None, duals: tuple[np.ndarray, np.ndarray] | None = None
+              ) -> ModeIISolution:
         """Solve from h0 with a primal guess (states (N+1, ns), inputs (N, nu), dt); with `duals`
-        (lam_g, lam_x: `shifted_duals`) and `warm_start`, by the warm-started solver. `released`: a
-        plane the tip leaves (the previous contact plane): its last link and tip are kept no closer
-        to it than at h0 less RELEASE_ALLOWANCE, instead of the margin off it."""
+        (lam_g, lam_x: `shifted_duals`) and `warm_start`, by the warm-started solver."""
         hs, us, dt0 = guess
         N, ns, nu, nv = len(us), self.ns, self.nu, self.nv
         nz = ns + 1 + nu + nv
@@ -288,18 +282,12 @@ class ModeIIOCP:
         if s.hold_violated is not None:  # no closer than at h0 (less the allowance)
             c0 = np.asarray(self._clearance(h0)).ravel() - s.hold_violated
             lb, lb_terminal = np.minimum(lb, c0), np.minimum(lb_terminal, c0)
-        if released is not None:
-            rows = end_rows(self.model, self.planes, self.contact, released)
-            c0 = np.asarray(self._clearance(h0)).ravel()[rows] - RELEASE_ALLOWANCE
-            lb, lb_terminal = lb.copy(), lb_terminal.copy()
-            lb[rows], lb_terminal[rows] = np.minimum(lb[rows], c0), np.minimum(lb_terminal[rows], c0)
         for k in range(N):
             i = ns + k * nc + ns + nv + 1
             lbg[i:i + self.n_clear], ubg[i:i + self.n_clear] = lb_terminal if k == N - 1 else lb, np.inf
         w0 = np.clip(self.pack(hs, us, dt0), lbw, ubw)
         P = np.concatenate([h0, [dt0], water(current),
-                            [1e3 if released is not None and os.environ.get("FLOOR_NO_IMPACT")
-                             else min(self.allowed_speed(hs[-1]), 1e3)]])  # (a finite parameter)
+                            [min(self.allowed_speed(hs[-1]), 1e3)]])  # (a finite parameter)
         args = {"x0": w0, "p": P, "lbx": lbw, "ubx": ubw, "lbg": lbg, "ubg": ubg}
         if warm:
             args.update(lam_g0=duals[0], lam_x0=duals[1])

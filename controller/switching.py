@@ -47,8 +47,6 @@ from controller.rollouts import BrakingPolicy, JointHold, simulate
 from controller.transcription import tip_gap
 from uvms.scene import Plane
 
-FACING_UP = 0.7  # a plane whose normal's vertical component is at least this is a floor (floor_handover)
-
 
 class Mode(Enum):
     I = "I"  # noqa: E741 (the paper's name)
@@ -62,7 +60,6 @@ class SwitchReason(Enum):
     F_EMPTY = "F empty: a positive minimum violation"
     SOLVER_FAILURE = "F taken as empty: IPOPT failed on the minimum-violation problem"
     DEPLOY_DEADLINE = "deploy deadline: waiting would leave Mode II no time to put the tip on the wall"
-    FLOOR_HANDOVER = "floor hand-over: in Mode III the hull sinks onto a plane facing up; Mode II onto it"
 
 
 class Fallback(Enum):
@@ -87,10 +84,6 @@ class SwitchingSettings:
     redeploy: bool = True  # Mode III's first solve failing: Mode II afresh (else maximum braking, arm held)
     separation_speed: float = 0.05  # m/s: Mode III -> I once the hull moves away faster (the paper: 0) ...
     release_check: bool = True  # ... and maximum braking from there keeps the hull off (SwitchingNMPC._may_release)
-    # s, or None (off): in Mode III, the deploy deadline with this lead asked of each other plane facing
-    # up (the seafloor); when it fires, Mode II onto that plane, the tip leaving the contact plane
-    # (`_floor_below`: a heavy hull that the wall's friction cannot hold up sinks onto the seafloor)
-    floor_handover: float | None = None
     contact_tolerance: float | None = 0.01  # m: enter Mode III only with the tip this close (None: the paper) ...
     contact_reach: bool = True  # ... or, under a latency, approaching it within the impact bound to be that close
     # Mode II's last (N_p = 1) step commits, for a Mode III first step that comes too late (strict real
@@ -223,8 +216,6 @@ class SwitchingNMPC:
         self._mode3_plans = 0  # Mode III plans made so far (which one a ContactStep answer continues)
         self._reported_mode = Mode.I
         self._switch: SwitchReason | None = None  # why this step left Mode I
-        self._released: int | None = None  # the plane the tip leaves in a floor hand-over's Mode II
-        self._strut: list | None = None  # probe: [plane, posture or None, touched]
         self._ocp_time = 0.0
         self._deploy: tuple[ModeIIOCP, np.ndarray, tuple] | None = None  # the deadline's deploy rollout this step
         self._helper: EntryHelper | None = None  # mode entries solved ahead (start_entry_helper)
@@ -308,8 +299,11 @@ class SwitchingNMPC:
     def _closest_plane(self, hs: np.ndarray) -> int:
         """The plane a rollout (states (K, ns)) comes closest to (smallest body clearance): the
         distances mapped over the states, one call per plane (not K)."""
-        states, mapped = np.asarray(hs, float).T, self._distance_maps_for(len(hs))
-        worst = [float(np.min(np.asarray(mapped(states, pl.normal, pl.offset)))) for pl in self.planes]
+        K = len(hs)
+        if K not in self._distance_maps:
+            self._distance_maps[K] = self.model.distances.map(K)
+        states = np.asarray(hs, float).T
+        worst = [float(np.min(np.asarray(self._distance_maps[K](states, pl.normal, pl.offset)))) for pl in self.planes]
         return int(np.argmin(worst))
 
     def predict(self, h: np.ndarray, u: np.ndarray, seconds: float) -> np.ndarray:
@@ -350,16 +344,6 @@ class SwitchingNMPC:
         distances, closing = self._geometry(h)
         if self.mode is Mode.III and self._reported_mode is Mode.III and self._may_release(h, closing):
             self.mode, self._plan = Mode.I, None
-        below = None
-        if self.mode is Mode.III and self._reported_mode is Mode.III and self.settings.floor_handover is not None:
-            below = self._floor_below(h)
-            import os
-            if below is not None and os.environ.get("FLOOR_STRUT"):
-                self._strut = [below, None, False]
-                self.contact = below
-            if below is not None and not os.environ.get("FLOOR_STRUT"):
-                self._released, self.contact = self.contact, below
-                self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         if self.mode is Mode.III and self._reported_mode is Mode.II and self._short_of_contact(h_a, t_a - t):
             if closing[self.contact, 0] > self.settings.separation_speed:  # no contact needed: the certificate decides
                 self.mode, self._plan = Mode.I, None
@@ -367,13 +351,7 @@ class SwitchingNMPC:
                 self.mode, self._plan, self._horizon2 = Mode.II, None, self.settings.mode2.horizon
         t0 = time.perf_counter()
         self._switch, self._ocp_time, self._deploy = None, 0.0, None
-        if below is not None:
-            self._switch = SwitchReason.FLOOR_HANDOVER
-        if self.mode is not Mode.II:
-            self._released = None
-        if self._strut is not None:
-            out = self._step_strut(h)
-        elif self.mode is Mode.I:
+        if self.mode is Mode.I:
             out = self._step_mode1(h_a, t_a)
         elif self.mode is Mode.II:
             out = self._step_mode2(h_a)
@@ -549,48 +527,6 @@ class SwitchingNMPC:
         t_deploy = len(guess[1]) * guess[2] if t_c is None else t_c
         return s.dt * (1 + close.index(True)) <= t_deploy + s.dt + self.settings.deadline_lead
 
-    def _floor_below(self, h: np.ndarray) -> int | None:
-        """With `floor_handover`, in Mode III: the first plane facing up, other than the contact plane,
-        that the braking rollout from h (which knows no contact: a sinking hull falls freely there)
-        brings a body within Mode I's margin (every body but the last link, which Mode II lets touch
-        it) no later than one control period plus `floor_handover` after the time Mode II's deploy
-        rollout needs to put the tip on it (the deploy deadline's rule, `_deadline`); else None."""
-        s, margin, N_max = self.settings.mode1, self.feasibility.settings.distance_margin, self.settings.mode2.horizon
-        hs, _ = self.feasibility.braking_rollout(h, self.current)
-        for j, plane in enumerate(self.planes):
-            if j == self.contact or plane.normal[2] < FACING_UP:
-                continue
-            d = np.asarray(self._distance_maps_for(len(hs) - 1)(np.asarray(hs[1:]).T, plane.normal, plane.offset))
-            close = np.min(d[:-1], axis=0) < margin
-            if not np.any(close):
-                continue
-            ocp2 = self.ocp2(j)
-            t_c = ocp2.time_to_contact(h, N_max, self.current)
-            if t_c is None:
-                guess = ocp2.deploy_guess(h, N_max, self.current)
-                t_c = len(guess[1]) * guess[2]
-            if s.dt * (1 + int(np.argmax(close))) <= t_c + s.dt + self.settings.floor_handover:
-                return j
-        return None
-
-    def _step_strut(self, h: np.ndarray) -> _ModeStep:
-        """Probe: the arm swung to (then held rigid at) the posture reaching furthest towards the floor."""
-        from controller.rollouts import ReachPosture
-        plane, posture, _ = self._strut
-        if posture is None:
-            level = h.copy()
-            level[3:5] = 0.0
-            self._strut[1] = ReachPosture(self.model, self.planes[plane])(level)
-        u = self._hold(h, self._strut[1], self.current)
-        self._reported_mode = Mode.III
-        return _ModeStep(u, SolverStatus.SUCCESS, Fallback.HOLD, 0, 0.01, 1, h[None], u[None])
-
-    def _distance_maps_for(self, K: int) -> Any:
-        """The model's body distances mapped over K states (one call)."""
-        if K not in self._distance_maps:
-            self._distance_maps[K] = self.model.distances.map(K)
-        return self._distance_maps[K]
-
     def _deploy_ahead(self, N: int) -> ModeIISolution | None:
         """With `mode2_entry_helper`, at Mode II's entry (Algorithm 1's longest horizon N): the deploy
         the helper solved for this plane at a state within half a Mode I period of this step's, if
@@ -619,7 +555,7 @@ class SwitchingNMPC:
                      and N == self.settings.mode2.horizon)
             guess = self._deploy[2] if ready else ocp.deploy_guess(h, N, self.current)
             N = len(guess[1])
-        sol = ocp.solve(h, guess, self.current, duals, released=self._released)
+        sol = ocp.solve(h, guess, self.current, duals)
         self._ocp_time = sol.solve_time
         iters = sol.iterations
         if sol.status.usable:

@@ -107,16 +107,6 @@ def contact_rows(model: UVMSModel, planes: Sequence[Plane], contact: int) -> np.
     return np.arange(contact * per_plane, contact * per_plane + max(model.n_joints, 1))
 
 
-def end_rows(model: UVMSModel, planes: Sequence[Plane], contact: int, plane: int) -> np.ndarray:
-    """Indices, within `clearances(model, h, planes, contact)`, of the last link's and the tip's rows
-    against `plane` (not the contact plane, where they are left out)."""
-    if plane == contact or not model.n_joints:
-        raise ValueError(f"plane {plane} has no end-effector rows; allowed: a plane other than {contact}, with an arm")
-    n = model.n_joints
-    start = sum(n if i == contact else n + 2 for i in range(plane))
-    return np.array([start + n, start + n + 1])
-
-
 def tip_gap(model: UVMSModel, h: ca.SX, plane: Plane) -> ca.SX:
     """Distance [m] from the end-effector tip's sphere to the plane (paper eq. EE_Wall_Dist_Constraint
     minus the tip radius): zero in contact."""

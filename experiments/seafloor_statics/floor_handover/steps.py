@@ -2,8 +2,8 @@
 thrusters-dead, no latency): time, mode, status, iterations, horizon N and its span T [s], the
 hull's distance to the floor [m], its vertical speed [m/s], the tip's gap to the floor [m] and its
 vertical speed, Mode II's predicted impact peak [N], Mode III's first planned force (normal,
-tangent) [N] and the joint angles [rad]. Needs the probe's code (commit a4c9723, with the
-environment switches FLOOR_NO_IMPACT or FLOOR_STRUT of the commit after it, see the README)."""
+tangent) [N] and the joint angles [rad]. Needs the probe's code (commit 22e07d2, with its
+environment switches FLOOR_NO_IMPACT or FLOOR_STRUT; see the README)."""
 
 import sys
 from typing import Any
