@@ -18,3 +18,11 @@ part2() {  # name half first-seed [--ctl ...]
 }
 part2 observed a 9232 --ctl observe_under_latency=true; part2 default a 9232
 part2 default b 9244; part2 observed b 9244 --ctl observe_under_latency=true
+# Diagnostic, added after Part 2 (not part of the rule): without a delay, the observer on (the
+# default) against off on Part 2's seeds, deterministic, side by side
+diag() {  # name [--ctl ...]
+  n=$1; shift
+  $UVMS campaign --scenarios wall-headon,wall-oblique,arm-deployed --controllers switching --seeds 24 \
+    --first-seed 9232 --workers 1 --timeout 900 "$@" --out $out/nodelay/$n
+}
+diag observer & diag unobserved --ctl observe_current=false; wait
