@@ -91,6 +91,9 @@ class ObserverSettings:
     fd_step: float = 1e-3  # m/s or WEIGHT_UNIT N, central finite-difference step of theta for the Jacobian
     substeps: int = 4  # 1, RK4 steps of the prediction over one period (4: the controller's rollouts' code)
     angular_weight: float = 0.0  # m/rad, weight of the hull's angular-velocity residual (0: linear only)
+    # m/s, or None (always): update only while the hull moves slower than this through the known
+    # water at both states (the model's and the plant's drag laws part with speed)
+    learning_speed: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("time_constant", "max_speed", "max_weight", "damping", "fd_step"):
@@ -99,6 +102,9 @@ class ObserverSettings:
                 raise ValueError(f"ObserverSettings.{name} = {value}; allowed: a finite number > 0")
         if self.substeps < 1:
             raise ValueError(f"ObserverSettings.substeps = {self.substeps}; allowed: an integer >= 1")
+        if self.learning_speed is not None and not (np.isfinite(self.learning_speed) and self.learning_speed > 0):
+            raise ValueError(f"ObserverSettings.learning_speed = {self.learning_speed}; allowed: a finite number > 0 "
+                             "or None")
         if not np.isfinite(self.angular_weight) or self.angular_weight < 0:
             raise ValueError(f"ObserverSettings.angular_weight = {self.angular_weight}; allowed: >= 0")
 
@@ -143,6 +149,12 @@ class CurrentObserver:
         vc = known + self._water(theta)
         return self.model.held_steps(h_prev, u_prev, dt, s.substeps, vc=vc)[self._rows] * self._weights
 
+    def _water_speed(self, h: np.ndarray, known: np.ndarray) -> float:
+        """The hull's speed [m/s] through the known water at state h."""
+        n = self.model.n_speeds
+        v = np.asarray(self.model.rotation(h), float) @ h[n:n + 3]
+        return float(np.linalg.norm(v - known[:3]))
+
     def _clip(self, theta: np.ndarray) -> np.ndarray:
         s, out = self.settings, theta.copy()
         norm = float(np.linalg.norm(out[:2]))
@@ -161,6 +173,9 @@ class CurrentObserver:
         known = water(np.asarray(known_current, float))
         if not (dt > 0 and np.all(np.isfinite(h_prev)) and np.all(np.isfinite(u_prev))
                 and np.all(np.isfinite(h_now)) and np.all(np.isfinite(known))):
+            return self.estimate
+        speed = max(self._water_speed(h, known) for h in (h_prev, h_now))
+        if s.learning_speed is not None and speed > s.learning_speed:
             return self.estimate
         theta = self._theta
         residual = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, theta)

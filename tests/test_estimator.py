@@ -346,9 +346,43 @@ def test_estimate_is_bounded_and_finite_whatever_it_is_fed(model: UVMSModel) -> 
     np.testing.assert_array_equal(broken.update(h12, u0, DT, jump, np.zeros(3)), np.zeros(4))
 
 
+def test_with_a_learning_speed_the_observer_learns_only_below_it(model: UVMSModel) -> None:
+    """The Kane model as the plant in 0.15 m/s of unknown current along world x, the hull yawed YAW
+    and coasting with no input from a speed through the water of 0.8 m/s (then under 0.5 m/s after
+    the drag has slowed it), the observer's `learning_speed` 0.5 m/s: no update while the hull moves
+    through the known water (none here) faster than that at either state, the speed taken from the
+    model's own rotation (checked against a world velocity formed by hand), and updates below it."""
+    p = model.params
+    c = np.array([INJECTED, 0.0, 0.0])
+    h0 = np.zeros(p.n_states)
+    h0[2], h0[5], h0[6:6 + p.n_joints] = -1.5, np.radians(YAW), p.arm.stowed
+    n = model.n_speeds
+    h0[n:n + 2] = 0.8 * np.array([np.cos(np.radians(YAW)), -np.sin(np.radians(YAW))])  # body frame
+    R = euler_zyx_to_matrix(0.0, 0.0, np.radians(YAW))
+    np.testing.assert_allclose(R @ h0[n:n + 3], [0.8, 0.0, 0.0], atol=1e-12)
+    plant = ModelPlant(model, (), h0, current=water(c))
+    observer = CurrentObserver(model, ObserverSettings(learning_speed=0.5))
+    h, fast, slow = h0, 0, 0
+    u = np.zeros(p.n_inputs)
+    for _ in range(round(DURATION / DT)):
+        plant.step(u, DT)
+        before = observer.updates
+        speed = max(float(np.linalg.norm(euler_zyx_to_matrix(*x[3:6]) @ x[n:n + 3])) for x in (h, plant.h))
+        observer.update(h, u, DT, plant.h, np.zeros(3))
+        if speed > 0.5 + 1e-6:
+            fast += 1
+            assert observer.updates == before
+        elif speed < 0.5 - 1e-6:
+            slow += 1
+            assert observer.updates == before + 1
+        h = plant.h.copy()
+    assert fast > 0 and slow > 0
+
+
 @pytest.mark.parametrize("change", [{"time_constant": 0.0}, {"max_speed": -1.0}, {"max_weight": 0.0},
                                     {"damping": np.nan},
-                                    {"fd_step": 0.0}, {"substeps": 0}, {"angular_weight": -1.0}])
+                                    {"fd_step": 0.0}, {"substeps": 0}, {"angular_weight": -1.0},
+                                    {"learning_speed": 0.0}, {"learning_speed": np.inf}])
 def test_bad_settings_are_refused(change: dict) -> None:
     with pytest.raises(ValueError, match="allowed"):
         ObserverSettings(**change)
