@@ -315,8 +315,8 @@ def test_estimate_is_bounded_and_finite_whatever_it_is_fed(model: UVMSModel) -> 
     """A measured hull velocity 10 m/s off the prediction, many times over: the estimate never
     leaves the max_speed circle and the max_weight interval. A singular Jacobian (a model the
     disturbance does not affect) moves it not at all; a non-finite state or prediction leaves it
-    unchanged."""
-    p, s = model.params, ObserverSettings(max_speed=0.5, max_weight=20.0)
+    unchanged. (Without a learning speed: the wild velocities are far above any.)"""
+    p, s = model.params, ObserverSettings(max_speed=0.5, max_weight=20.0, learning_speed=None)
     n = p.n_joints
     h = np.zeros(p.n_states)
     h[2], h[6:6 + n] = -1.5, p.arm.stowed
@@ -338,11 +338,11 @@ def test_estimate_is_bounded_and_finite_whatever_it_is_fed(model: UVMSModel) -> 
     np.testing.assert_array_equal(observer.estimate, np.zeros(4))
 
     h12, u0 = np.zeros(12), np.zeros(8)
-    singular = CurrentObserver(_StubModel(0.0))  # type: ignore[arg-type]
+    singular = CurrentObserver(_StubModel(0.0), ObserverSettings(learning_speed=None))  # type: ignore[arg-type]
     jump = h12.copy()
     jump[6:9] = 5.0
     np.testing.assert_array_equal(singular.update(h12, u0, DT, jump, np.zeros(3)), np.zeros(4))
-    broken = CurrentObserver(_StubModel(np.nan))  # type: ignore[arg-type]
+    broken = CurrentObserver(_StubModel(np.nan), ObserverSettings(learning_speed=None))  # type: ignore[arg-type]
     np.testing.assert_array_equal(broken.update(h12, u0, DT, jump, np.zeros(3)), np.zeros(4))
 
 
