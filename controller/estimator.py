@@ -96,8 +96,8 @@ class ObserverSettings:
     # m/s, or None (always): update only while the hull moves slower than this through the known
     # water at both states. The model's and the plant's drag laws part with speed: in a 1.2 m/s
     # approach the observer read 11-23 N of weight that the default mismatch cannot give, and
-    # wall-oblique's hull came closer (experiments/observer_learning_speed: the hull further off
-    # in 39 of 60 held-out runs, p = 0.027; station keeping, at 0.3-0.5 m/s, unchanged)
+    # wall-oblique's hull came closer (experiments/observer_learning_speed: on held-out seeds the
+    # hull further off in 39 runs, closer in 21, p = 0.027; station keeping, at 0.3-0.5 m/s, unchanged)
     learning_speed: float | None = 0.5
 
     def __post_init__(self) -> None:
