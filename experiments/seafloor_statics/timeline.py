@@ -30,12 +30,18 @@ class Logged:
 
     def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, Any]:
         u, info = self.inner.step(h, t)
+        line = self.line(h, t, info)
+        if line is not None:
+            self.lines.append(line)
+        return u, info
+
+    def line(self, h: np.ndarray, t: float, info: Any) -> str | None:
+        """The step's line (None: none kept)."""
         hull = np.round(np.asarray(info.distances)[:, 0], 3).tolist()
         force = None if info.contact_force is None else np.round(np.asarray(info.contact_force)[0], 1).tolist()
-        self.lines.append(f"{t:5.2f} {info.mode.name:>3} {info.status.value:<12} {info.fallback.name:<12} "
-                          f"it={info.iterations:3} hull={hull} z={h[2]:.2f} pitch={np.degrees(h[4]):5.1f} "
-                          f"F={force} plane={info.contact_plane} {info.switch.name if info.switch else ''}")
-        return u, info
+        return (f"{t:5.2f} {info.mode.name:>3} {info.status.value:<12} {info.fallback.name:<12} "
+                f"it={info.iterations:3} hull={hull} z={h[2]:.2f} pitch={np.degrees(h[4]):5.1f} "
+                f"F={force} plane={info.contact_plane} {info.switch.name if info.switch else ''}")
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ tangent) [N] and the joint angles [rad]. Needs the probe's code (commit 22e07d2,
 environment switches FLOOR_NO_IMPACT or FLOOR_STRUT; see the README)."""
 
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -14,39 +15,29 @@ from controller import switching as sw
 from validation import presets, scenarios
 from validation.closed_loop import run
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from timeline import Logged
 
-class Logged:
-    """The preset's controller, a line per step on the floor kept in `lines`."""
 
-    settings_type = sw.SwitchingSettings
+class FloorLogged(Logged):
+    """timeline.py's logged controller, a line per step on the floor (plane 1) only."""
 
-    def __init__(self, inner: Any) -> None:
-        self.inner, self.lines = inner, []
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.inner, name)
-
-    def reset(self, task: Any) -> None:
-        self.inner.reset(task)
-
-    def step(self, h: np.ndarray, t: float) -> tuple[np.ndarray, Any]:
-        u, info = self.inner.step(h, t)
+    def line(self, h: np.ndarray, t: float, info: Any) -> str | None:
+        if info.contact_plane != 1:
+            return None
         nmpc = self.inner.nmpc
-        if info.contact_plane == 1:
-            gap = float(sw.tip_gap(nmpc.model, h, nmpc.planes[1]))
-            v_tip = float(np.asarray(nmpc.model.jacobian_ee(h))[2, :] @ h[10:])
-            peak = None if info.impact_force is None else round(float(info.impact_force), 1)
-            force = None if info.contact_force is None else np.round(np.asarray(info.contact_force)[0, :2], 1).tolist()
-            self.lines.append(
-                f"{t:5.2f} {info.mode.name:>3} {info.status.value[:10]:<10} it={info.iterations:3} N={info.horizon:2} "
+        gap = float(sw.tip_gap(nmpc.model, h, nmpc.planes[1]))
+        v_tip = float(np.asarray(nmpc.model.jacobian_ee(h))[2, :] @ h[10:])
+        peak = None if info.impact_force is None else round(float(info.impact_force), 1)
+        force = None if info.contact_force is None else np.round(np.asarray(info.contact_force)[0, :2], 1).tolist()
+        return (f"{t:5.2f} {info.mode.name:>3} {info.status.value[:10]:<10} it={info.iterations:3} N={info.horizon:2} "
                 f"T={info.horizon * info.dt:.2f} hull_up={np.asarray(info.distances)[1, 0]:.3f} vz={h[12]:+.2f} "
                 f"tipgap={gap:.3f} tip_vz={v_tip:+.2f} impact={peak} F={force} q={np.round(h[6:10], 2).tolist()}")
-        return u, info
 
 
 if __name__ == "__main__":
     seed, lead = int(sys.argv[1]), float(sys.argv[2])
-    ctl = Logged(presets.build(presets.resolve("switching", {"floor_handover": lead})))
+    ctl = FloorLogged(presets.build(presets.resolve("switching", {"floor_handover": lead})))
     summary = run(scenarios.get("thrusters-dead"), ctl, mismatch="wide", seed=seed)
     print(summary.verdict, summary.reason)
     print("\n".join(ctl.lines))
