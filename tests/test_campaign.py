@@ -238,7 +238,7 @@ def test_compare_counts_rare_failures_and_their_precursors_on_the_same_runs(tmp_
     assert "| hull within 5 cm | thrusters-dead | 2 | 10 | 0 / 8 | 0.0078 |" in text
     assert "| hull contact | thrusters-dead | 0 | 2 | 0 / 2 | 0.5 |" in text
     assert "| Mode III handed back to Mode II | thrusters-dead | 1 | 10 | 0 / 9 | 0.0039 |" in text
-    assert "arm-link contact" not in text
+    assert "| arm-link contact | thrusters-dead" not in text
 
 
 def test_compare_reads_an_older_campaigns_fewer_columns(tmp_path, capsys) -> None:
@@ -265,3 +265,23 @@ def test_results_md_sums_each_modes_overruns_over_the_runs() -> None:
     md = report.markdown(rows)
     assert "| I | 0 of 10 (0%) |" in md and "| II | 3 of 10 (30%) |" in md and "| III | - |" in md
     assert "overran" not in report.markdown([{**r, "latency": "none"} for r in rows])
+
+
+def test_results_md_counts_failures_by_kind_and_hull_contacts_by_the_plane_touched() -> None:
+    """Reasons written by the closed loop's own verdict (validation.closed_loop.judge) are read back
+    per plane: of five thrusters-dead runs, one touches the seafloor, one the wall and then the
+    seafloor, one an arm link and one succeeds, and the fifth is a timeout: hull contact 2 (seafloor
+    2, wall 1), arm-link contact 1, tip overload 0, not finished 1. All successes: no table."""
+    from validation import report
+    from validation.closed_loop import judge
+
+    verdicts = [judge(4.0, 300.0, 0.0, 50.0, 200.0, ("seafloor",)), judge(9.0, 400.0, 0.0, 50.0, 200.0,
+                ("wall", "seafloor")), judge(0.0, 0.0, 1.0, 50.0, 200.0), judge(0.0, 0.0, 0.0, 50.0, 200.0)]
+    rows = [{"scenario": "thrusters-dead", "controller": "c", "seed": s, "verdict": o.value, "reason": why}
+            for s, (o, why) in enumerate(verdicts)]
+    rows.append({"scenario": "thrusters-dead", "controller": "c", "seed": 4, "verdict": "timeout", "reason": ""})
+    assert report.hull_planes(rows[1]) == ("wall", "seafloor")
+    md = report.markdown(rows)
+    assert "| thrusters-dead | c | 2 (seafloor 2, wall 1) | 1 | 0 | 1 |" in md
+    assert "| all | c | 2 (seafloor 2, wall 1) | 1 | 0 | 1 |" in md
+    assert "by kind" not in report.markdown([rows[3]])

@@ -186,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
                             timeout=args.timeout)
             print(report.statistics_text(rows))
             print(f"wrote {args.out}/results.csv (a row per run), results.md, success.png, runs/*/summary.json")
-            return 0 if all(r.get("verdict") not in ("error", "timeout", "worker died") for r in rows) else 1
+            return 0 if all(r.get("verdict") not in report.UNFINISHED for r in rows) else 1
         if args.command == "compare":
             from validation import report
             print(report.compare(args.a, args.b))

@@ -1,13 +1,14 @@
 """What a campaign's rows say: per scenario family and controller the success rate with its 95%
 Wilson interval (a markdown table and a figure), the paired counts and exact McNemar test of two
 controllers on the same runs, the sign test of their hull distances and task errors on those runs,
-the paired counts of rare failures and their precursors (near misses, Mode III's hand-backs), and
-the whole-step times per mode. `uvms compare A B` reads two
+the paired counts of rare failures and their precursors (near misses, Mode III's hand-backs), the
+failures by kind (hull contacts by the plane touched), and the whole-step times per mode. `uvms compare A B` reads two
 result folders the same way."""
 
 from __future__ import annotations
 
 import math
+import re
 import statistics
 from collections.abc import Sequence
 from itertools import combinations
@@ -44,6 +45,38 @@ def rate(rows: Sequence[dict[str, Any]]) -> tuple[int, int, float, float]:
 def _rate_text(rows: Sequence[dict[str, Any]]) -> str:
     k, n, lo, hi = rate(rows)
     return f"{k}/{n} ({100 * lo:.0f}-{100 * hi:.0f}%)" if n else "-"
+
+
+UNFINISHED = ("error", "timeout", "worker died")  # verdicts of runs that did not finish (validation.campaign)
+
+
+def hull_planes(row: dict[str, Any]) -> tuple[str, ...]:
+    """The planes a hull-contact run's reason names (validation.closed_loop.judge), in the order of
+    their first touch; () when it names none (older results)."""
+    m = re.match(r"the hull touched the (.+?) with ", str(row.get("reason", "")))
+    return tuple(m.group(1).split(" and the ")) if m else ()
+
+
+def _failures_text(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per family (and all) and controller, the failed runs by kind: hull contacts with the runs per
+    plane touched (a run touching two planes counts under each), arm-link contacts, tip overloads
+    and runs that did not finish. Empty when every run succeeded."""
+    if all(map(_ok, rows)):
+        return []
+    out = []
+    for f in [*_names(rows, "scenario"), None]:
+        for c in _names(rows, "controller"):
+            mine = [r for r in rows if r["controller"] == c and f in (None, r["scenario"])]
+            hull = [r for r in mine if r.get("verdict") == "hull contact"]
+            planes = [p for r in hull for p in hull_planes(r)]
+            where = ", ".join(f"{p} {planes.count(p)}" for p in sorted(set(planes)))
+            counts = [sum(r.get("verdict") == v for r in mine) for v in ("arm contact", "tip overload")]
+            unfinished = sum(r.get("verdict") in UNFINISHED for r in mine)
+            out.append(f"| {f or 'all'} | {c} | {len(hull)}{f' ({where})' if where else ''} | {counts[0]} | "
+                       f"{counts[1]} | {unfinished} |")
+    return ["", "Failed runs by kind (hull contacts with the runs per plane the hull touched):", "",
+            "| scenario | controller | hull contact | arm-link contact | tip overload | not finished |",
+            "|---|---|---|---|---|---|", *out]
 
 
 def _names(rows: Sequence[dict[str, Any]], field: str) -> list[str]:
@@ -144,10 +177,11 @@ def statistics_text(rows: Sequence[dict[str, Any]]) -> str:
                                        for c in controllers) + " |" for f in families]
     lines += ["| all | " + " | ".join(_rate_text([r for r in rows if r["controller"] == c]) for c in controllers)
               + " |"]
-    failures = [r for r in rows if r.get("verdict") in ("error", "timeout", "worker died")]
+    failures = [r for r in rows if r.get("verdict") in UNFINISHED]
     if failures:
         lines += ["", f"{len(failures)} runs did not finish (error, timeout or worker died); they count as "
                   "failures above."]
+    lines += _failures_text(rows)
     if len(controllers) > 1:
         lines += ["", PAIRED_HEAD, ""]
         for a, b in combinations(controllers, 2):
