@@ -40,6 +40,8 @@ and the filter averages many such steps; on the model itself only the filter's l
 (tests/test_estimator.py).
 It learns only while the hull moves through the known water slower than `learning_speed` (0.5 m/s)
 at both states: faster, the model's drag law and the plant's part, and the gap reads as weight.
+With `learning_acceleration` it also skips periods over which the hull's world velocity changes
+faster than that: a mass and added mass the model does not know then act, and read as weight too.
 Why the velocity residual: a current acts on the hull through the relative velocity in drag and
 added-mass forces, and a weight as a force, i.e. both on accelerations; the change of velocity over
 a period is the measurable effect, and positions carry no more information one period ahead. The
@@ -99,6 +101,10 @@ class ObserverSettings:
     # wall-oblique's hull came closer (experiments/observer_learning_speed: on held-out seeds the
     # hull further off in 39 runs, closer in 21, p = 0.027; station keeping, at 0.3-0.5 m/s, unchanged)
     learning_speed: float | None = 0.5
+    # m/s^2, or None (always): update only while the hull's world velocity changes by less than this
+    # times the period over it. Braking hard (1-5 m/s^2) the observer read 6-29 N of weight where the
+    # default mismatch gives about 4 N (experiments/observer_gated_latency, trace.py)
+    learning_acceleration: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("time_constant", "max_speed", "max_weight", "damping", "fd_step"):
@@ -110,6 +116,10 @@ class ObserverSettings:
         if self.learning_speed is not None and not (np.isfinite(self.learning_speed) and self.learning_speed > 0):
             raise ValueError(f"ObserverSettings.learning_speed = {self.learning_speed}; allowed: a finite number > 0 "
                              "or None")
+        if self.learning_acceleration is not None and not (np.isfinite(self.learning_acceleration)
+                                                           and self.learning_acceleration > 0):
+            raise ValueError(f"ObserverSettings.learning_acceleration = {self.learning_acceleration}; allowed: a "
+                             "finite number > 0 or None")
         if not np.isfinite(self.angular_weight) or self.angular_weight < 0:
             raise ValueError(f"ObserverSettings.angular_weight = {self.angular_weight}; allowed: >= 0")
 
@@ -154,11 +164,14 @@ class CurrentObserver:
         vc = known + self._water(theta)
         return self.model.held_steps(h_prev, u_prev, dt, s.substeps, vc=vc)[self._rows] * self._weights
 
+    def _world_velocity(self, h: np.ndarray) -> np.ndarray:
+        """The hull's linear velocity [m/s, world] at state h."""
+        n = self.model.n_speeds
+        return np.asarray(self.model.rotation(h), float) @ h[n:n + 3]
+
     def _water_speed(self, h: np.ndarray, known: np.ndarray) -> float:
         """The hull's speed [m/s] through the known water at state h."""
-        n = self.model.n_speeds
-        v = np.asarray(self.model.rotation(h), float) @ h[n:n + 3]
-        return float(np.linalg.norm(v - known[:3]))
+        return float(np.linalg.norm(self._world_velocity(h) - known[:3]))
 
     def _clip(self, theta: np.ndarray) -> np.ndarray:
         s, out = self.settings, theta.copy()
@@ -181,6 +194,9 @@ class CurrentObserver:
             return self.estimate
         if s.learning_speed is not None and max(self._water_speed(h, known) for h in (h_prev, h_now)) > \
                 s.learning_speed:
+            return self.estimate
+        if s.learning_acceleration is not None and np.linalg.norm(
+                self._world_velocity(h_now) - self._world_velocity(h_prev)) > s.learning_acceleration * dt:
             return self.estimate
         theta = self._theta
         residual = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, theta)

@@ -379,10 +379,42 @@ def test_with_a_learning_speed_the_observer_learns_only_below_it(model: UVMSMode
     assert fast > 0 and slow > 0
 
 
+def test_with_a_learning_acceleration_the_observer_learns_only_below_it(model: UVMSModel) -> None:
+    """The Kane model as the plant in 0.15 m/s of unknown current along world x, the hull yawed YAW
+    and at rest, every thruster at +20 N for 1 s and then off (the hull speeds up, then coasts), the
+    observer's `learning_acceleration` 0.5 m/s^2 (and no learning speed): no update over a period in
+    which the hull's world velocity, formed by hand from the Euler angles, changes by more than
+    0.5 m/s^2 times the period, and an update over one in which it changes by less."""
+    p = model.params
+    h0 = np.zeros(p.n_states)
+    h0[2], h0[5], h0[6:6 + p.n_joints] = -1.5, np.radians(YAW), p.arm.stowed
+    n = model.n_speeds
+    plant = ModelPlant(model, (), h0, current=water(np.array([INJECTED, 0.0, 0.0])))
+    observer = CurrentObserver(model, ObserverSettings(learning_speed=None, learning_acceleration=0.5))
+    h, fast, slow = h0, 0, 0
+    for k in range(round(DURATION / DT)):
+        u = np.zeros(p.n_inputs)
+        u[:p.n_thrusters] = 20.0 if k * DT < 1.0 else 0.0
+        plant.step(u, DT)
+        before = observer.updates
+        v0, v1 = (euler_zyx_to_matrix(*x[3:6]) @ x[n:n + 3] for x in (h, plant.h))
+        acceleration = float(np.linalg.norm(v1 - v0)) / DT
+        observer.update(h, u, DT, plant.h, np.zeros(3))
+        if acceleration > 0.5 + 1e-6:
+            fast += 1
+            assert observer.updates == before
+        elif acceleration < 0.5 - 1e-6:
+            slow += 1
+            assert observer.updates == before + 1
+        h = plant.h.copy()
+    assert fast > 0 and slow > 0
+
+
 @pytest.mark.parametrize("change", [{"time_constant": 0.0}, {"max_speed": -1.0}, {"max_weight": 0.0},
                                     {"damping": np.nan},
                                     {"fd_step": 0.0}, {"substeps": 0}, {"angular_weight": -1.0},
-                                    {"learning_speed": 0.0}, {"learning_speed": np.inf}])
+                                    {"learning_speed": 0.0}, {"learning_speed": np.inf},
+                                    {"learning_acceleration": -1.0}, {"learning_acceleration": np.nan}])
 def test_bad_settings_are_refused(change: dict) -> None:
     with pytest.raises(ValueError, match="allowed"):
         ObserverSettings(**change)
