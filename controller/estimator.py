@@ -16,7 +16,8 @@ filter with a growing memory at first and a first-order lag after. The unknowns
 theta = (c_x, c_y, W / WEIGHT_UNIT) are scaled so that their Jacobian columns are of one size
 (10 N of weight change a period's velocity about as much as 0.1 m/s of current).
 From the measured state h_prev and the input u_prev held over dt, the model predicts
-h_pred(theta) = `held_steps(h_prev, u_prev, dt, substeps, vc=water(known + c, W))`. The residual r
+h_pred(theta) = `held_steps(h_prev, u_prev, dt, substeps, vc=water(known + c, W))` (under a latency the
+previous input first, for the delay, then u_prev, the substeps shared out by duration). The residual r
 is the measured minus the predicted hull linear body velocity [m/s] (and, with `angular_weight` > 0,
 the angular one [rad/s] times that weight [m/rad]); its Jacobian J = dr/dtheta (3x3 or 6x3) is taken
 by central finite differences of the prediction about the present estimate (6 calls of the compiled
@@ -74,6 +75,7 @@ WEIGHT_UNIT N], `substeps` [1], `angular_weight` [m/rad].
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -157,12 +159,15 @@ class CurrentObserver:
         self._theta = np.zeros(3)
         self._updates = 0
 
-    def _predict(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, known: np.ndarray,
-                 theta: np.ndarray) -> np.ndarray:
-        """The weighted hull velocities the model predicts at the end of the period."""
+    def _predict(self, h_prev: np.ndarray, inputs: Sequence[tuple[np.ndarray, float]], dt: float,
+                 known: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """The weighted hull velocities the model predicts at the end of the period, each input held
+        for its seconds in turn (`substeps` RK4 steps over the period, shared out by duration)."""
         s = self.settings
-        vc = known + self._water(theta)
-        return self.model.held_steps(h_prev, u_prev, dt, s.substeps, vc=vc)[self._rows] * self._weights
+        vc, h = known + self._water(theta), h_prev
+        for u, seconds in inputs:
+            h = self.model.held_steps(h, u, seconds, max(1, round(s.substeps * seconds / dt)), vc=vc)
+        return h[self._rows] * self._weights
 
     def _world_velocity(self, h: np.ndarray) -> np.ndarray:
         """The hull's linear velocity [m/s, world] at state h."""
@@ -182,13 +187,20 @@ class CurrentObserver:
         return out
 
     def update(self, h_prev: np.ndarray, u_prev: np.ndarray, dt: float, h_now: np.ndarray,
-               known_current: np.ndarray) -> np.ndarray:
+               known_current: np.ndarray, before: tuple[np.ndarray, float] | None = None) -> np.ndarray:
         """One observer step: u_prev [N, N m] was held over dt [s] from the measured state h_prev to
         the measured state h_now; known_current [m/s, world] is the current the controller knows.
-        Returns the updated `estimate`."""
+        `before` (an input and seconds, under a latency): that input acted first, for those seconds
+        of dt, and u_prev for the rest. Returns the updated `estimate`."""
         s = self.settings
         h_prev, u_prev, h_now = (np.asarray(a, float) for a in (h_prev, u_prev, h_now))
         known = water(np.asarray(known_current, float))
+        inputs = [(u_prev, dt)]
+        if before is not None and before[1] > 0.0:
+            u_before, first = np.asarray(before[0], float), float(before[1])
+            if not (np.all(np.isfinite(u_before)) and first <= dt):
+                return self.estimate
+            inputs = [(u_before, first)] + ([(u_prev, dt - first)] if dt - first > 1e-9 else [])
         if not (dt > 0 and np.all(np.isfinite(h_prev)) and np.all(np.isfinite(u_prev))
                 and np.all(np.isfinite(h_now)) and np.all(np.isfinite(known))):
             return self.estimate
@@ -199,11 +211,11 @@ class CurrentObserver:
                 self._world_velocity(h_now) - self._world_velocity(h_prev)) > s.learning_acceleration * dt:
             return self.estimate
         theta = self._theta
-        residual = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, theta)
+        residual = h_now[self._rows] * self._weights - self._predict(h_prev, inputs, dt, known, theta)
         J = np.empty((len(self._rows), 3))
         for i, e in enumerate(s.fd_step * np.eye(3)):
-            ahead = self._predict(h_prev, u_prev, dt, known, theta + e)
-            behind = self._predict(h_prev, u_prev, dt, known, theta - e)
+            ahead = self._predict(h_prev, inputs, dt, known, theta + e)
+            behind = self._predict(h_prev, inputs, dt, known, theta - e)
             J[:, i] = (ahead - behind) / (2 * s.fd_step)
         if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(J))):
             return self.estimate
@@ -211,7 +223,7 @@ class CurrentObserver:
         for damping in s.damping * 10.0 ** np.arange(0, 2 * LM_TRIALS, 2):
             delta = np.linalg.solve(J.T @ J + damping * np.eye(3), J.T @ residual)
             trial = self._clip(theta + delta)
-            r = h_now[self._rows] * self._weights - self._predict(h_prev, u_prev, dt, known, trial)
+            r = h_now[self._rows] * self._weights - self._predict(h_prev, inputs, dt, known, trial)
             if np.all(np.isfinite(r)) and float(r @ r) < worst:
                 target = trial
                 break

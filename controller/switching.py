@@ -47,6 +47,8 @@ from controller.rollouts import BrakingPolicy, JointHold, simulate
 from controller.transcription import tip_gap
 from uvms.scene import Plane
 
+DELAY_TOLERANCE = 0.0025  # s: a later input than the previous one's by at most this counts as on time (observer)
+
 
 class Mode(Enum):
     I = "I"  # noqa: E741 (the paper's name)
@@ -94,6 +96,9 @@ class SwitchingSettings:
     current: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world: the current the model assumes
     observe_current: bool = True  # add controller.estimator's estimate of the unknown current and hull weight
     observer: ObserverSettings = field(default_factory=ObserverSettings)
+    # under a latency, update the observer too, its prediction holding the previous input until the
+    # step's answer arrives (SwitchingController._sample); False: no update under a latency
+    observe_under_latency: bool = False
     trim_in_contact: bool = True  # in contact before the observer's first update: the task's trim's weight
     plan_for_latency: bool = True  # plan from the state predicted at the task's latency (SwitchingController)
     # s: with plan_for_latency, the delay planned for when the task tells none in a loop on the wall
@@ -646,6 +651,23 @@ class SwitchingNMPC:
         return _ModeStep(u, sol.status, Fallback.HOLD, sol.iterations, s.dt, s.horizon, h[None], u[None])
 
 
+@dataclass(frozen=True)
+class _Sample:
+    """A step as the observer's next update reads it: the measured state, the input returned, the
+    sample time [s], whether nothing touched, the input that acted first in the period (the
+    previous one, for `delay` seconds until this one arrived; None: this one from the sample on),
+    whether both are known to have acted so (`timed`), and whether this input was applied."""
+
+    h: np.ndarray
+    u: np.ndarray
+    t: float
+    free: bool
+    before: tuple[np.ndarray, float] | None
+    timed: bool
+    delay: float
+    applied: bool
+
+
 class SwitchingController:
     """The switching NMPC behind the controller protocol (controller.protocol): built at `reset`
     from the task's vehicle, planes and reference; told the known current and faults each step.
@@ -654,7 +676,10 @@ class SwitchingController:
     model's hull weight its own plus the estimated extra weight, updated from each pair of measured
     states in any mode while every body and the tip are at least `contact_clearance` off every plane
     at both (a contact's force would read as a current or a weight), and held
-    otherwise; under a latency it is never updated (it assumes one input over each interval).
+    otherwise. Under a latency it is not updated, unless `observe_under_latency`: then each
+    period's prediction holds the previous input until this step's arrives (the told delay; on the
+    wall clock without one, the step's own duration), then this one (`_sample`), and a period whose
+    inputs the loop replaced is skipped.
     With `trim_in_contact`, a vehicle in contact before the observer's first update (arm-deployed: on
     the wall 0.05 s in) plans with the extra weight the task's trim check tells (Task.trim less the
     model's own weight in water) instead of none; in free flight the observer's estimate stands, also
@@ -686,7 +711,7 @@ class SwitchingController:
         self._trim: np.ndarray | None = None  # the told extra weight as the model's vc (trim_in_contact)
         self._task: Task | None = None
         self._failed: tuple[int, ...] = ()
-        self._last: tuple[np.ndarray, np.ndarray, float, bool] | None = None  # h, u, t, whether observed free
+        self._last: _Sample | None = None  # the last step's, for the observer's next update
 
     def reset(self, task: Task) -> None:
         model = UVMSModel(task.params, task.scene.water, self.settings.model_options())
@@ -732,9 +757,13 @@ class SwitchingController:
             self._failed = failed
         known = water(self._task.scene.current.at(t))
         free = self.observer is not None and self._free(h)
+        last = self._last
         if self.observer is not None:
-            if self._last is not None and self._last[3] and free and t > self._last[2] and self.latency == 0.0:
-                self.observer.update(self._last[0], self._last[1], t - self._last[2], np.asarray(h, float), known)
+            delayed = self.settings.observe_under_latency
+            usable = last is not None and last.timed and last.free and free and t > last.t
+            if usable and (delayed or self.latency == 0.0):
+                self.observer.update(last.h, last.u, t - last.t, np.asarray(h, float), known,
+                                     before=last.before if delayed else None)
             untaught = self._trim is not None and not free and not self.observer.updates
             known = known + (self._trim if untaught else self.observer.estimate)
         self.nmpc.current = known
@@ -745,9 +774,25 @@ class SwitchingController:
             u, info = self.nmpc.step(h, t)
         if self._release and self._started:
             time.sleep(max(0.0, self.latency - (time.perf_counter() - called)))
+        self._last = self._sample(h, u, t, free, time.perf_counter() - called, last)
         self._started = True
-        self._last = (np.asarray(h, float).copy(), u.copy(), t, free)
         return u, replace(info, water=known.copy())
+
+    def _sample(self, h: np.ndarray, u: np.ndarray, t: float, free: bool, duration: float,
+                last: _Sample | None) -> _Sample:
+        """This step's record for the observer: when its input acts (the told delay; on the wall
+        clock without one, its own `duration` [s]; the first step's at once), the previous input
+        acting until then, and whether both are known to have acted so (not when strict real time
+        discarded either for a committed row, nor when this one came later than the previous one's
+        period ran out: the loop then played that step's committed rows; closed_loop's docstring)."""
+        told = float(self._task.latency) if self._task is not None else 0.0
+        wall_clock = self._task is not None and self._task.wall_clock
+        delay = 0.0 if not self._started else told if told > 0.0 else duration if wall_clock else 0.0
+        applied = not (told > 0.0 and wall_clock and duration > told)
+        if delay == 0.0 or last is None:
+            return _Sample(np.asarray(h, float).copy(), u.copy(), t, free, None, applied, delay, applied)
+        timed = applied and last.applied and delay <= last.delay + DELAY_TOLERANCE
+        return _Sample(np.asarray(h, float).copy(), u.copy(), t, free, (last.u, delay), timed, delay, applied)
 
     def _free(self, h: np.ndarray) -> bool:
         """Every body and the tip at least `contact_clearance` off every plane: no contact force acts."""

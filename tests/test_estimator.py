@@ -214,6 +214,35 @@ def test_on_the_model_itself_only_the_filter_lag_remains(model: UVMSModel, curre
         assert np.max(np.abs(np.array(estimates)[:, 3])) < WEIGHT_LAG_TOLERANCE
 
 
+def test_under_a_latency_the_previous_input_first_leaves_only_the_filter_lag(model: UVMSModel) -> None:
+    """As above (the Kane model as the plant, the current and the 20 N of weight unknown), station
+    keeping with 10 N more and less on every thruster in turn (so that consecutive inputs differ),
+    each input acting 0.05 s after its sample, the previous one until then: told the previous input
+    and the delay (`before`), the estimate at the end is within LAG_TOLERANCE of the current and
+    WEIGHT_LAG_TOLERANCE of the weight; read as one input held over each period it is off by more
+    than ten times that on some axis."""
+    p, latency, weight = model.params, 0.05, 20.0
+    c = np.array([INJECTED, 0.08, 0.0])
+    h0 = np.zeros(p.n_states)
+    h0[2], h0[5], h0[6:6 + p.n_joints] = -1.5, np.radians(YAW), p.arm.stowed
+    plant = ModelPlant(model, (), h0, current=water(c, weight))
+    policy, told, untold = station_keeper(model, h0), CurrentObserver(model), CurrentObserver(model)
+    h, u_prev = h0, policy(h0)
+    square = np.zeros(p.n_inputs)
+    square[:p.n_thrusters] = 10.0
+    for k in range(round(DURATION / DT)):
+        u = policy(h) + (-1) ** k * square
+        plant.step(u_prev, latency)
+        plant.step(u, DT - latency)
+        told.update(h, u, DT, plant.h, np.zeros(3), before=(u_prev, latency))
+        untold.update(h, u, DT, plant.h, np.zeros(3))
+        h, u_prev = plant.h.copy(), u
+    np.testing.assert_allclose(told.estimate[:3], c, rtol=0, atol=LAG_TOLERANCE)
+    assert abs(told.estimate[3] - weight) < WEIGHT_LAG_TOLERANCE
+    off = np.abs(untold.estimate - np.array([*c, weight]))
+    assert off[:3].max() > 10 * LAG_TOLERANCE or off[3] > 10 * WEIGHT_LAG_TOLERANCE
+
+
 @pytest.mark.parametrize("time_constant", [0.3, 1.0])
 def test_on_the_model_in_its_linear_regime_the_filter_takes_the_first_target_then_lags(model: UVMSModel,
                                                                                          time_constant: float) -> None:
@@ -458,10 +487,12 @@ if __name__ == "__main__":
 
 
 @pytest.mark.slow
-def test_switching_controller_observes_an_unknown_current_in_closed_loop() -> None:
+@pytest.mark.parametrize("latency", ["none", "0.05"])
+def test_switching_controller_observes_an_unknown_current_in_closed_loop(latency: str) -> None:
     """The switching controller with `observe_current`, station keeping 0.4 m off the wall in a
     known 0.3 m/s current (current-steady, 4 s) with 0.15 m/s more along world x that it is not told
-    of (the mismatch term `current+0.15` in the MuJoCo plant). It stays in Mode I, touches nothing,
+    of (the mismatch term `current+0.15` in the MuJoCo plant), with no delay and with each input
+    acting 0.05 s after its sample (the previous one until then). It stays in Mode I, touches nothing,
     and the current its model assumes at the end is the known one plus an estimate within 0.05 m/s
     of the unknown 0.15 m/s along x and of 0 along y and z: the plant's and the model's fluid laws
     differ by 0.028 m/s here at the oracle's own optimum (the open-loop test above), and 0.02 m/s
@@ -474,8 +505,8 @@ def test_switching_controller_observes_an_unknown_current_in_closed_loop() -> No
 
     errors = {}
     for observe in (False, True):
-        ctl = SwitchingController(SwitchingSettings(observe_current=observe))
-        s = run(get("current-steady"), controller=ctl, mismatch="current+0.15", seed=0)
+        ctl = SwitchingController(SwitchingSettings(observe_current=observe, observe_under_latency=True))
+        s = run(get("current-steady"), controller=ctl, mismatch="current+0.15", seed=0, latency=latency)
         assert s.verdict == "success" and s.modes == ["I"]
         errors[observe] = s.final_task_error
     known = get("current-steady").current.velocities[-1]
@@ -502,7 +533,7 @@ def test_switching_controller_weighs_a_heavier_hull_before_mode2s_contact(params
         def step(self, h, t):
             u, info = super().step(h, t)
             estimates.append(self.observer.estimate)
-            free.append(self._last[3])
+            free.append(self._last.free)
             return u, info
 
     sc = replace(get("thrusters-dead"), duration=1.5)
