@@ -41,8 +41,9 @@ and the filter averages many such steps; on the model itself only the filter's l
 (tests/test_estimator.py).
 It learns only while the hull moves through the known water slower than `learning_speed` (0.5 m/s)
 at both states: faster, the model's drag law and the plant's part, and the gap reads as weight.
-With `learning_acceleration` it also skips periods over which the hull's world velocity changes
-faster than that: a mass and added mass the model does not know then act, and read as weight too.
+It also skips periods over which the hull's world velocity changes faster than
+`learning_acceleration` (0.5 m/s^2): a mass and added mass the model does not know then act, and read
+as weight too.
 Why the velocity residual: a current acts on the hull through the relative velocity in drag and
 added-mass forces, and a weight as a force, i.e. both on accelerations; the change of velocity over
 a period is the measurable effect, and positions carry no more information one period ahead. The
@@ -105,8 +106,11 @@ class ObserverSettings:
     learning_speed: float | None = 0.5
     # m/s^2, or None (always): update only while the hull's world velocity changes by less than this
     # times the period over it. Braking hard (1-5 m/s^2) the observer read 6-29 N of weight where the
-    # default mismatch gives about 4 N (experiments/observer_gated_latency, trace.py)
-    learning_acceleration: float | None = None
+    # default mismatch gives about 4 N (experiments/observer_gated_latency). Without a delay that
+    # reading moved no hull (experiments/observer_learning_acceleration: the final task error at 5 s
+    # larger in 41 of 48 differing wall runs); under one it made Mode I late, and with this gate the
+    # observer is updated there too (experiments/observer_latency_accel)
+    learning_acceleration: float | None = 0.5
 
     def __post_init__(self) -> None:
         for name in ("time_constant", "max_speed", "max_weight", "damping", "fd_step"):

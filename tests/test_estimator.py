@@ -344,8 +344,9 @@ def test_estimate_is_bounded_and_finite_whatever_it_is_fed(model: UVMSModel) -> 
     """A measured hull velocity 10 m/s off the prediction, many times over: the estimate never
     leaves the max_speed circle and the max_weight interval. A singular Jacobian (a model the
     disturbance does not affect) moves it not at all; a non-finite state or prediction leaves it
-    unchanged. (Without a learning speed: the wild velocities are far above any.)"""
-    p, s = model.params, ObserverSettings(max_speed=0.5, max_weight=20.0, learning_speed=None)
+    unchanged. (Without a learning speed or acceleration: the wild velocities are far above any.)"""
+    p, s = model.params, ObserverSettings(max_speed=0.5, max_weight=20.0, learning_speed=None,
+                                         learning_acceleration=None)
     n = p.n_joints
     h = np.zeros(p.n_states)
     h[2], h[6:6 + n] = -1.5, p.arm.stowed
@@ -367,11 +368,12 @@ def test_estimate_is_bounded_and_finite_whatever_it_is_fed(model: UVMSModel) -> 
     np.testing.assert_array_equal(observer.estimate, np.zeros(4))
 
     h12, u0 = np.zeros(12), np.zeros(8)
-    singular = CurrentObserver(_StubModel(0.0), ObserverSettings(learning_speed=None))  # type: ignore[arg-type]
+    ungated = ObserverSettings(learning_speed=None, learning_acceleration=None)
+    singular = CurrentObserver(_StubModel(0.0), ungated)  # type: ignore[arg-type]
     jump = h12.copy()
     jump[6:9] = 5.0
     np.testing.assert_array_equal(singular.update(h12, u0, DT, jump, np.zeros(3)), np.zeros(4))
-    broken = CurrentObserver(_StubModel(np.nan), ObserverSettings(learning_speed=None))  # type: ignore[arg-type]
+    broken = CurrentObserver(_StubModel(np.nan), ungated)  # type: ignore[arg-type]
     np.testing.assert_array_equal(broken.update(h12, u0, DT, jump, np.zeros(3)), np.zeros(4))
 
 
@@ -390,7 +392,7 @@ def test_with_a_learning_speed_the_observer_learns_only_below_it(model: UVMSMode
     R = euler_zyx_to_matrix(0.0, 0.0, np.radians(YAW))
     np.testing.assert_allclose(R @ h0[n:n + 3], [0.8, 0.0, 0.0], atol=1e-12)
     plant = ModelPlant(model, (), h0, current=water(c))
-    observer = CurrentObserver(model, ObserverSettings(learning_speed=0.5))
+    observer = CurrentObserver(model, ObserverSettings(learning_speed=0.5, learning_acceleration=None))
     h, fast, slow = h0, 0, 0
     u = np.zeros(p.n_inputs)
     for _ in range(round(DURATION / DT)):
@@ -505,7 +507,7 @@ def test_switching_controller_observes_an_unknown_current_in_closed_loop(latency
 
     errors = {}
     for observe in (False, True):
-        ctl = SwitchingController(SwitchingSettings(observe_current=observe, observe_under_latency=True))
+        ctl = SwitchingController(SwitchingSettings(observe_current=observe))
         s = run(get("current-steady"), controller=ctl, mismatch="current+0.15", seed=0, latency=latency)
         assert s.verdict == "success" and s.modes == ["I"]
         errors[observe] = s.final_task_error
